@@ -1,16 +1,70 @@
-"""craft_dsl: a typed DSL for CRAFT-style causal video question answering."""
+"""craft_dsl: a typed DSL for CRAFT-style causal video question answering.
 
+>>> from craft_dsl import parse, load_simulation
+>>> sim = load_simulation("tests/data/e1.json")
+>>> parse("Count(FilterDynamic(FilterObjectsFromEvents(FilterCollideGround(Events()))))").run(sim)
+2
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .errors import (
+    CounterfactualUnavailable,
+    CraftError,
+    EvaluationError,
+    NodeListError,
+    ParseError,
+    ProgramError,
+    SideInputError,
+    SimulationFileError,
+    TypeCheckError,
+    UnknownModuleError,
+)
+from .program import Program, parse
+from .recorded import load_simulation, save_simulation
+from .registry import MODULES, REGISTRY
 from .simulation import Event, ObjectState, SimObject, Simulation, Trajectory
+from .types import INVALID, DslType
 from .world import BodySpec, Geometry, WorldSpec
 
 __all__ = [
+    "INVALID",
+    "MODULES",
+    "REGISTRY",
     "BodySpec",
+    "CounterfactualUnavailable",
+    "CraftError",
+    "DslType",
+    "EvaluationError",
     "Event",
     "Geometry",
+    "NodeListError",
     "ObjectState",
+    "ParseError",
+    "Program",
+    "ProgramError",
+    "SideInputError",
     "SimObject",
     "Simulation",
+    "SimulationFileError",
     "Trajectory",
+    "TypeCheckError",
+    "UnknownModuleError",
     "WorldSpec",
+    "load_simulation",
+    "parse",
+    "save_simulation",
+    "simulate",
 ]
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str) -> Any:
+    # Physics loads pymunk; import it only when asked for.
+    if name == "simulate":
+        from .physics import simulate
+
+        return simulate
+    raise AttributeError(f"module 'craft_dsl' has no attribute {name!r}")

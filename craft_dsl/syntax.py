@@ -1,0 +1,66 @@
+"""Program syntax trees. Nodes are immutable and hashable; source positions never affect equality."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+Position = tuple[int, int]  # (line, column), 1-based
+
+
+@dataclass(frozen=True)
+class Call:
+    """A module application. After type checking ``module`` is the canonical name."""
+
+    module: str
+    args: tuple[Expr, ...] = ()
+    pos: Position | None = field(default=None, compare=False, hash=False, repr=False)
+
+
+@dataclass(frozen=True)
+class Literal:
+    """A side-input or integer literal ("small", "yellow", 3). Strings are stored canonical after checking."""
+
+    value: str | int
+    pos: Position | None = field(default=None, compare=False, hash=False, repr=False)
+
+
+@dataclass(frozen=True)
+class Ref:
+    """A reference to a ``Var`` binding."""
+
+    name: str
+    pos: Position | None = field(default=None, compare=False, hash=False, repr=False)
+
+
+Expr = Call | Literal | Ref
+
+
+@dataclass(frozen=True)
+class Binding:
+    name: str
+    expr: Expr
+    pos: Position | None = field(default=None, compare=False, hash=False, repr=False)
+
+
+@dataclass(frozen=True)
+class Tree:
+    """A whole program: bindings, then the final expression."""
+
+    bindings: tuple[Binding, ...]
+    body: Expr
+
+
+def format_expr(expr: Expr) -> str:
+    """Canonical one-line text of an expression."""
+    if isinstance(expr, Call):
+        return f"{expr.module}({', '.join(format_expr(a) for a in expr.args)})"
+    if isinstance(expr, Literal):
+        return f'"{expr.value}"' if isinstance(expr.value, str) else str(expr.value)
+    return expr.name
+
+
+def format_tree(tree: Tree) -> str:
+    """Canonical text: one ``Var Name = expr`` line per binding, then the final expression."""
+    lines = [f"Var {b.name} = {format_expr(b.expr)}" for b in tree.bindings]
+    lines.append(format_expr(tree.body))
+    return "\n".join(lines)
