@@ -70,3 +70,57 @@ def templates() -> dict[str, Template]:
             t = _parse_line(line.strip())
             out[t.id] = t
     return out
+
+
+@lru_cache(maxsize=1)
+def paraphrases() -> dict[str, tuple[str, ...]]:
+    """The original paraphrases of every template (with ``*starred*`` words and placeholders)."""
+    text = (Path(__file__).parent / "template_texts.txt").read_text(encoding="utf-8")
+    out: dict[str, tuple[str, ...]] = {}
+    for line in text.splitlines():
+        if line.strip() and not line.startswith("#"):
+            head, body = line.split(":", 1)
+            tid = head.split("[")[0].strip()
+            out[tid] = tuple(p.strip() for p in body.split("||"))
+    return out
+
+
+def question_text(template_id: str, params: dict[str, str], paraphrase: int = 0) -> str:
+    """A plain rendering of one paraphrase: placeholders bound, starred words unstarred."""
+    text = paraphrases()[template_id][paraphrase]
+    for key in sorted(params, key=len, reverse=True):
+        text = text.replace(key, params[key])
+    text = re.sub(r"\*(.+?)\*", r"\1", text)
+    return " ".join(text.split())
+
+
+def instantiate(template: Template, sim: Any) -> tuple[dict[str, str], Any] | None:
+    """The first binding (objects in ascending id order) whose answer is not INVALID, or None.
+
+    Object placeholders (<Z> <C> <S>, <Z2> <C2> <S2>) describe dynamic objects of ``sim``; a lone
+    attribute placeholder takes the attribute values of the dynamic objects.
+    """
+    from .types import INVALID
+
+    dynamic = [o for o in sim.objects if o.dynamic]
+    ph = set(template.placeholders)
+
+    def describe(o: Any, suffix: str) -> dict[str, str]:
+        return {f"<Z{suffix}>": o.size, f"<C{suffix}>": o.color, f"<S{suffix}>": o.shape}
+
+    candidates: list[dict[str, str]] = []
+    if {"<Z2>", "<C2>", "<S2>"} <= ph:
+        candidates = [{**describe(a, ""), **describe(b, "2")} for a in dynamic for b in dynamic if a.id != b.id]
+    elif {"<Z>", "<C>", "<S>"} <= ph:
+        candidates = [describe(a, "") for a in dynamic]
+    elif ph:
+        (key,) = ph
+        attr = {"<Z>": "size", "<C>": "color", "<S>": "shape"}[key]
+        candidates = [{key: v} for v in dict.fromkeys(getattr(o, attr) for o in dynamic)]
+    else:
+        candidates = [{}]
+    for params in candidates:
+        answer = template.program(params).run(sim)
+        if answer is not INVALID:
+            return params, answer
+    return None

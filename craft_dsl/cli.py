@@ -1,0 +1,163 @@
+"""The ``craft-dsl`` command line."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from .errors import CraftError
+from .program import Program, format_value, to_json
+from .registry import MODULES
+
+EXIT_USAGE = 2
+
+
+def _read_program(text: str) -> str:
+    if text.startswith("@"):
+        path = Path(text[1:])
+        try:
+            return path.read_text(encoding="utf-8")
+        except OSError as err:
+            raise CraftError(f"cannot read program file {path}: {err.strerror}") from None
+    return text
+
+
+def _params(pairs: Sequence[str]) -> dict[str, str]:
+    out = {}
+    for pair in pairs:
+        key, sep, value = pair.partition("=")
+        if not sep:
+            raise CraftError(f"--param {pair!r}: expected PLACEHOLDER=VALUE, e.g. '<Z>=small'")
+        out[key if key.startswith("<") else f"<{key}>"] = value
+    return out
+
+
+def _load_program(args: argparse.Namespace) -> Program:
+    if getattr(args, "nodes", None):
+        try:
+            data = json.loads(Path(args.nodes).read_text(encoding="utf-8"))
+        except OSError as err:
+            raise CraftError(f"cannot read node list {args.nodes}: {err.strerror}") from None
+        except json.JSONDecodeError as err:
+            raise CraftError(f"{args.nodes}: not valid JSON (line {err.lineno}, column {err.colno})") from None
+        if isinstance(data, dict):  # a question record or {"nodes": [...]}
+            data = data.get("program", data.get("nodes", data))
+        return Program.from_nodes(data, _params(args.param))
+    if not args.program:
+        raise CraftError("give a PROGRAM (text or @file) or --nodes FILE")
+    return Program.parse(_read_program(args.program))
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from .recorded import load_simulation
+
+    program = _load_program(args)
+    sim = load_simulation(args.sim)
+    if args.trace:
+        entries = program.trace(sim)
+        if args.json:
+            print(json.dumps([{"expression": e.expression, "type": str(e.type), "value": to_json(e.value)}
+                              for e in entries], indent=2))
+        else:
+            for e in entries:
+                print(f"{e.expression}  ->  {format_value(e.value)}  : {e.type}")
+        return 0
+    answer = program.run(sim)
+    if args.json:
+        print(json.dumps({"program": str(program), "type": str(program.type), "answer": to_json(answer)}))
+    else:
+        print(format_value(answer))
+    return 0
+
+
+def cmd_check(args: argparse.Namespace) -> int:
+    program = _load_program(args)
+    if args.json:
+        print(json.dumps({"program": str(program), "type": str(program.type), "nodes": program.to_nodes()}))
+    else:
+        print(program)
+        print(f": {program.type}")
+    return 0
+
+
+def modules_table(markdown: bool = False) -> str:
+    """The registry as a table (plain text, or Markdown for docs/modules.md)."""
+    rows = []
+    for m in MODULES:
+        sigs = " / ".join(
+            "(" + ", ".join([str(t) for t in ov.inputs] + [f'"{t}"' for t in m.side_inputs]) + f") -> {ov.output}"
+            for ov in m.overloads
+        )
+        rows.append((m.name, sigs, ", ".join(m.aliases), m.description))
+    if markdown:
+        lines = ["| module | signature | original names | meaning |", "|---|---|---|---|"]
+        lines += [f"| `{n}` | `{s}` | {', '.join(f'`{a}`' for a in al.split(', ') if a)} | {d} |"
+                  for n, s, al, d in rows]
+        return "\n".join(lines)
+    w0 = max(len(r[0]) for r in rows)
+    w1 = max(len(r[1]) for r in rows)
+    return "\n".join(f"{n:<{w0}}  {s:<{w1}}  {d}" for n, s, _, d in rows)
+
+
+def cmd_modules(args: argparse.Namespace) -> int:
+    print(modules_table(markdown=args.markdown))
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="craft-dsl", description="Typed DSL for CRAFT causal video QA.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    run = sub.add_parser("run", help="run a program over a recorded simulation")
+    run.add_argument("program", nargs="?", help="program text, or @file")
+    run.add_argument("--sim", required=True, help="simulation JSON file (CRAFT format)")
+    run.add_argument("--nodes", help="read the program as a CLEVR/CRAFT node list from this JSON file")
+    run.add_argument("--param", action="append", default=[], metavar="<Z>=small",
+                     help="bind a template placeholder of a node list (repeatable)")
+    run.add_argument("--json", action="store_true", help="print JSON")
+    run.add_argument("--trace", action="store_true", help="print every node's value")
+    run.set_defaults(func=cmd_run)
+
+    check = sub.add_parser("check", help="type-check a program; print its canonical form and type")
+    check.add_argument("program", nargs="?", help="program text, or @file")
+    check.add_argument("--nodes", help="read the program as a node list from this JSON file")
+    check.add_argument("--param", action="append", default=[], metavar="<Z>=small")
+    check.add_argument("--json", action="store_true", help="print JSON (with the node list)")
+    check.set_defaults(func=cmd_check)
+
+    mods = sub.add_parser("modules", help="list every module with its signature")
+    mods.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    mods.set_defaults(func=cmd_modules)
+
+    for name in ("craft_dsl.demo", "craft_dsl.physics.cli", "craft_dsl.render.cli"):
+        try:
+            module = importlib.import_module(name)
+        except ImportError as err:
+            if err.name and name.startswith(err.name):
+                continue  # that part of the package is not built
+            raise
+        module.add_commands(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        result: Any = args.func(args)
+    except CraftError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    return int(result or 0)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
