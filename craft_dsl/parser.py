@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from functools import lru_cache
+from typing import Any, cast
 
 from lark import Lark, Token, Transformer, v_args
 from lark import Tree as LarkTree
@@ -31,15 +32,15 @@ def _pos(tok: Token | LarkTree) -> tuple[int, int] | None:
 @v_args(tree=True)
 class _ToSyntax(Transformer):
     def start(self, t: LarkTree) -> Tree:
-        *bindings, body = t.children
+        *bindings, body = cast(list[Any], t.children)
         return Tree(tuple(bindings), body)
 
     def binding(self, t: LarkTree) -> Binding:
-        _var, name, expr = t.children
+        _var, name, expr = cast(list[Any], t.children)
         return Binding(str(name), expr, _pos(name))
 
     def call(self, t: LarkTree) -> Call:
-        name, *args = t.children
+        name, *args = cast(list[Any], t.children)
         return Call(str(name), tuple(a for a in args if a is not None), _pos(name))
 
     def string(self, t: LarkTree) -> Literal:
@@ -47,7 +48,7 @@ class _ToSyntax(Transformer):
         return Literal(str(tok).strip(_QUOTES), _pos(tok))
 
     def integer(self, t: LarkTree) -> Literal:
-        (tok,) = t.children
+        (tok,) = cast(list[Any], t.children)
         return Literal(int(tok), _pos(tok))
 
     def ref(self, t: LarkTree) -> Ref:

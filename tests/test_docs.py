@@ -1,0 +1,27 @@
+"""The docs' module reference is generated from the registry and must stay in step with it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from craft_dsl.cli import modules_table
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_module_reference_matches_registry() -> None:
+    text = (ROOT / "docs" / "modules.md").read_text(encoding="utf-8")
+    table = modules_table(markdown=True)
+    assert table in text, "docs/modules.md is stale: regenerate it with `craft-dsl modules --markdown`"
+
+
+def test_readme_has_the_two_newcomer_commands() -> None:
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    head = readme[:2000]
+    assert "pip install -e . && craft-dsl demo" in head
+    assert "pip install -e '.[dev]' && python -m pytest -q" in head
+
+
+def test_ci_runs_the_readme_test_command() -> None:
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+    assert "python -m pip install -e '.[dev]' && python -m pytest -q" in ci
