@@ -1,0 +1,71 @@
+"""Command-line commands of the physics package: ``simulate`` and ``scenes stats``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    from ..recorded import save_simulation
+    from .live import simulate
+
+    scene: int | str = int(args.scene) if str(args.scene).isdigit() else args.scene
+    sim = simulate(scene, seed=args.seed, steps=args.steps, engine=args.engine)
+    save_simulation(sim, args.out, variations=not args.no_variations)
+    n_var = 0 if args.no_variations else len(sim.dynamic_ids)
+    print(f"wrote {args.out}: scene {sim.meta['scene']} seed {sim.meta['seed']}, {len(sim.events)} events, "
+          f"{n_var} variations", file=sys.stderr)
+    return 0
+
+
+def _scene_list(text: str | None) -> list[int]:
+    if not text:
+        return list(range(1, 21))
+    out: list[int] = []
+    for part in text.split(","):
+        if "-" in part:
+            lo, hi = part.split("-", 1)
+            out.extend(range(int(lo), int(hi) + 1))
+        elif part.strip():
+            out.append(int(part))
+    return out
+
+
+def cmd_scene_stats(args: argparse.Namespace) -> int:
+    from .stats import format_table, scene_stats
+
+    rows = []
+    for scene in _scene_list(args.scenes):
+        row = scene_stats(scene, range(args.seeds), engine=args.engine, steps=args.steps)
+        rows.append(row)
+        print(f"scene {scene}: {row.runs} runs, {row.sims_per_second:.1f} sims/s", file=sys.stderr, flush=True)
+    print(format_table(rows, markdown=args.markdown))
+    return 0
+
+
+def add_commands(subparsers: Any) -> None:
+    """Register ``simulate`` and ``scenes stats`` on the main CLI's subparsers."""
+    sim = subparsers.add_parser("simulate", help="simulate a scene with live physics and save it as JSON")
+    sim.add_argument("--scene", required=True, help="scene id 1-20 or a layout file")
+    sim.add_argument("--seed", type=int, default=0)
+    sim.add_argument("--steps", type=int, default=600)
+    sim.add_argument("--engine", default="pymunk")
+    sim.add_argument("--out", required=True, help="output JSON (original format)")
+    sim.add_argument("--no-variations", action="store_true", help="do not run the counterfactuals")
+    sim.set_defaults(func=cmd_simulate)
+
+    if "scenes" in subparsers.choices:  # another package owns "scenes"; expose stats on its own
+        scenes_sub = None
+    else:
+        scenes = subparsers.add_parser("scenes", help="scene utilities")
+        scenes_sub = scenes.add_subparsers(dest="scenes_command", required=True, metavar="SUBCOMMAND")
+    stats = (scenes_sub.add_parser("stats", help="per-scene statistics over seeds") if scenes_sub is not None
+             else subparsers.add_parser("scene-stats", help="per-scene statistics over seeds"))
+    stats.add_argument("--seeds", type=int, default=200, help="seeds 0..N-1 per scene")
+    stats.add_argument("--scenes", help="e.g. 1,2,5-7 (default: all 20)")
+    stats.add_argument("--steps", type=int, default=600)
+    stats.add_argument("--engine", default="pymunk")
+    stats.add_argument("--markdown", action="store_true", help="print a Markdown table")
+    stats.set_defaults(func=cmd_scene_stats)

@@ -1,0 +1,380 @@
+"""The pymunk 7 (Chipmunk2D) engine adapter.
+
+Box2D behaviour emulated (spec ``original-simulator.md`` §1, §2, §10):
+
+* friction 0.1 on every contact (each shape gets sqrt(0.1), Chipmunk multiplies); restitution 0.2 applied
+  only when a contact begins with a normal approach speed above 1 m/s (Box2D's velocity threshold), else 0;
+* polygons and basket edges carry a 0.01 m radius like Box2D's skin; circles are pymunk circles;
+* collision slop 0.005 m; overlap is resolved with Chipmunk's bias pseudo-velocities, which are not kept
+  as real velocity, so initial overlaps are pushed out without launching bodies;
+* several sub-steps per 1/60-s frame stand in for Box2D's continuous collision (no tunnelling through
+  the 0.01-m basket walls at ~50 m/s);
+* sleeping after 0.5 s below 0.01 m/s; a sleeping body reports zero velocity.
+
+Replay (see :class:`~craft_dsl.physics.engine.ReplayPlan`): a replayed body is kinematic, placed exactly
+on its recorded row at the start of every frame and moved at the recorded mean velocity during it; its
+shapes collide only with dynamically simulated bodies (never with statics, the sensor or other replays).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import pymunk
+from pymunk._chipmunk import lib as _lib
+
+from ..simulation import Trajectory
+from ..world import FRICTION, RESTITUTION, RESTITUTION_THRESHOLD, BodySpec, WorldSpec
+from .engine import ContactLog, Interval, PairKey, RawRun, ReplayPlan, SensorKey, pair_key
+
+_CAT_STATIC = 0b001
+_CAT_DYNAMIC = 0b010
+_CAT_REPLAY = 0b100
+_FILTER_STATIC = pymunk.ShapeFilter(categories=_CAT_STATIC, mask=_CAT_DYNAMIC)
+_FILTER_DYNAMIC = pymunk.ShapeFilter(categories=_CAT_DYNAMIC, mask=_CAT_STATIC | _CAT_DYNAMIC | _CAT_REPLAY)
+_FILTER_REPLAY = pymunk.ShapeFilter(categories=_CAT_REPLAY, mask=_CAT_DYNAMIC)
+
+_SHAPE_FRICTION = math.sqrt(FRICTION)
+
+
+@dataclass(frozen=True)
+class _ShapeInfo:
+    uid: int
+    part: int
+    sensor: bool
+
+
+class _IntervalRecorder:
+    """Turns begin/separate callbacks at (frame, sub-step) into per-frame touching intervals."""
+
+    def __init__(self) -> None:
+        self.open: dict[Any, list[list[int]]] = {}
+
+    def begin(self, key: Any, frame: int) -> None:
+        ivs = self.open.get(key)
+        if ivs is None:
+            self.open[key] = [[frame, -1]]
+            return
+        last = ivs[-1]
+        if last[1] == -1 or last[1] >= frame:  # still touching in this frame: same contact continues
+            last[1] = -1
+        else:
+            ivs.append([frame, -1])
+
+    def separate(self, key: Any, frame: int, substep: int) -> None:
+        ivs = self.open.get(key)
+        if ivs is None or ivs[-1][1] != -1:
+            return
+        # Separating at the first sub-step means the pair did not touch in this frame at all.
+        ivs[-1][1] = frame + 1 if substep > 0 else frame
+        if ivs[-1][1] <= ivs[-1][0]:
+            ivs.pop()
+            if not ivs:
+                del self.open[key]
+
+    def result(self, steps: int) -> dict[Any, tuple[Interval, ...]]:
+        return {
+            k: tuple((s, steps if e == -1 else e) for s, e in v) for k, v in sorted(self.open.items()) if v
+        }
+
+
+class PymunkEngine:
+    """Physics adapter on pymunk 7. Parameters are the emulation's tuning knobs."""
+
+    name = "pymunk"
+
+    def __init__(
+        self,
+        substeps: int = 8,
+        iterations: int = 10,
+        collision_slop: float = 0.005,
+        collision_bias: float = (1.0 - 0.2) ** 60,
+        polygon_radius: float = 0.01,
+        sleep_time: float = 0.5,
+        idle_speed: float = 0.01,
+        max_move: float = 0.03,
+        max_substeps: int = 32,
+    ) -> None:
+        self.substeps = substeps
+        self.max_move = max_move
+        self.max_substeps = max_substeps
+        self.iterations = iterations
+        self.collision_slop = collision_slop
+        self.collision_bias = collision_bias
+        self.polygon_radius = polygon_radius
+        self.sleep_time = sleep_time
+        self.idle_speed = idle_speed
+
+    # -- building a space ------------------------------------------------------------------------
+
+    def build_space(self, world: WorldSpec) -> tuple[pymunk.Space, dict[int, pymunk.Body], dict[Any, _ShapeInfo]]:
+        """A pymunk space holding ``world`` (all dynamic bodies dynamic), with no callbacks."""
+        space = pymunk.Space()
+        space.gravity = world.gravity
+        space.iterations = self.iterations
+        space.collision_slop = self.collision_slop
+        space.collision_bias = self.collision_bias
+        space.damping = 1.0
+        if self.sleep_time > 0:
+            space.sleep_time_threshold = self.sleep_time
+            space.idle_speed_threshold = self.idle_speed
+        bodies: dict[int, pymunk.Body] = {}
+        infos: dict[Any, _ShapeInfo] = {}
+        for spec in world.bodies:
+            body, shapes = self._make_body(spec)
+            space.add(body, *shapes)
+            bodies[spec.uid] = body
+            for part, shape in enumerate(shapes):
+                infos[shape] = _ShapeInfo(spec.uid, part, shape.sensor)
+        return space, bodies, infos
+
+    def _make_body(self, spec: BodySpec) -> tuple[pymunk.Body, list[pymunk.Shape]]:
+        body = pymunk.Body(body_type=pymunk.Body.DYNAMIC if spec.dynamic else pymunk.Body.STATIC)
+        geo = spec.geometry
+        shapes: list[pymunk.Shape] = []
+        for poly in geo.polygons:
+            shapes.append(pymunk.Poly(body, list(poly), radius=self.polygon_radius))
+        if geo.circle_radius is not None:
+            shapes.append(pymunk.Circle(body, geo.circle_radius))
+        for a, b in geo.segments:
+            shapes.append(pymunk.Segment(body, a, b, geo.segment_radius))
+        for shape in shapes:
+            shape.friction = _SHAPE_FRICTION
+            shape.elasticity = 0.0
+            if spec.dynamic:
+                shape.density = 50.0
+            shape.filter = _FILTER_DYNAMIC if spec.dynamic else _FILTER_STATIC
+        if geo.sensor is not None:
+            sensor = pymunk.Poly(body, list(geo.sensor))
+            sensor.sensor = True
+            sensor.filter = _FILTER_STATIC
+            shapes.append(sensor)
+        body.position = spec.position
+        body.angle = spec.angle
+        if spec.dynamic:
+            body.velocity = spec.velocity
+            body.angular_velocity = spec.angular_velocity
+        return body, shapes
+
+    def substeps_for(self, max_speed_sq: float, fps: float) -> int:
+        """Sub-steps for a frame whose fastest dynamic body moves at sqrt(max_speed_sq) m/s: at least
+        ``substeps``, more so that no body moves more than ``max_move`` per sub-step (without CCD, a
+        deeper penetration of a basket wall would reach the sensor 0.04 m inside it)."""
+        need = math.ceil(math.sqrt(max_speed_sq) / fps / self.max_move)
+        return min(self.max_substeps, max(self.substeps, need))
+
+    # -- running -----------------------------------------------------------------------------------
+
+    def run(self, world: WorldSpec, steps: int, replay: ReplayPlan | None = None) -> RawRun:
+        return _Run(self, world, steps, replay).execute()
+
+    def run_bare(self, world: WorldSpec, steps: int) -> pymunk.Space:
+        """Step the same space with no callbacks and no recording (the benchmark's baseline)."""
+        space, bodies, _ = self.build_space(world)
+        fps = float(world.steps_per_second)
+        handles = [b._body for b in bodies.values() if b.body_type == pymunk.Body.DYNAMIC]
+        get_vel = _lib.cpBodyGetVelocity
+        vmax2 = max((v[0] ** 2 + v[1] ** 2 for v in (b.velocity for b in world.bodies if b.dynamic)), default=0.0)
+        for _ in range(steps):
+            n = self.substeps_for(vmax2, fps)
+            dt = 1.0 / fps / n
+            for _ in range(n):
+                space.step(dt)
+            vmax2 = 0.0
+            for h in handles:
+                v = get_vel(h)
+                vmax2 = max(vmax2, v.x * v.x + v.y * v.y)
+        return space
+
+
+class _Run:
+    def __init__(self, engine: PymunkEngine, world: WorldSpec, steps: int, replay: ReplayPlan | None) -> None:
+        self.engine = engine
+        self.world = world
+        self.steps = steps
+        self.replay = replay
+        self.frame = 0
+        self.substep = 0
+        self.stepping = False
+        self.contacts = _IntervalRecorder()
+        self.sensors = _IntervalRecorder()
+
+    # Callbacks --------------------------------------------------------------------------------------
+
+    def _begin(self, arb: pymunk.Arbiter, space: pymunk.Space, data: Any) -> None:
+        if not self.stepping:
+            return
+        sa, sb = arb.shapes
+        ia, ib = self.infos[sa], self.infos[sb]
+        if ia.sensor or ib.sensor:
+            key_s: SensorKey = (ia.uid, ib.uid) if ia.sensor else (ib.uid, ia.uid)
+            self.sensors.begin(key_s, self.frame)
+            return
+        self.contacts.begin(pair_key(ia.uid, ia.part, ib.uid, ib.part), self.frame)
+        # Box2D's restitution threshold: bounce only on an approach faster than 1 m/s.
+        n = arb.normal
+        ba, bb = sa.body, sb.body
+        assert ba is not None and bb is not None
+        approach = 0.0
+        for pt in arb.contact_point_set.points:
+            p = pt.point_a
+            dv = bb.velocity_at_world_point(p) - ba.velocity_at_world_point(p)
+            approach = max(approach, -(dv.x * n.x + dv.y * n.y))
+        arb.restitution = RESTITUTION if approach > RESTITUTION_THRESHOLD else 0.0
+
+    def _separate(self, arb: pymunk.Arbiter, space: pymunk.Space, data: Any) -> None:
+        if not self.stepping or arb.is_removal:
+            return
+        sa, sb = arb.shapes
+        ia, ib = self.infos[sa], self.infos[sb]
+        if ia.sensor or ib.sensor:
+            key_s: SensorKey = (ia.uid, ib.uid) if ia.sensor else (ib.uid, ia.uid)
+            self.sensors.separate(key_s, self.frame, self.substep)
+            return
+        self.contacts.separate(pair_key(ia.uid, ia.part, ib.uid, ib.part), self.frame, self.substep)
+
+    # Main loop --------------------------------------------------------------------------------------
+
+    def execute(self) -> RawRun:
+        eng, world, steps, replay = self.engine, self.world, self.steps, self.replay
+        space, bodies, self.infos = eng.build_space(world)
+        space.on_collision(None, None, begin=self._begin, separate=self._separate)
+        ids = tuple(b.uid for b in world.bodies)
+        n = len(ids)
+        pos = np.zeros((steps + 1, n, 2))
+        ang = np.zeros((steps + 1, n))
+        vel = np.zeros((steps + 1, n, 2))
+        angv = np.zeros((steps + 1, n))
+        awake = np.zeros((steps + 1, n), dtype=bool)
+        col = {uid: i for i, uid in enumerate(ids)}
+        dyn = [(col[b.uid], bodies[b.uid]) for b in world.bodies if b.dynamic]
+        for b in world.bodies:
+            i = col[b.uid]
+            pos[0, i] = b.position
+            ang[0, i] = b.angle
+            if b.dynamic:
+                vel[0, i] = b.velocity
+                angv[0, i] = b.angular_velocity
+                awake[0, i] = True
+
+        first = 0
+        activation: dict[int, int] = {}
+        base_cols: dict[int, int] = {}
+        if replay is not None:
+            base = replay.base
+            first = min(replay.first_frame, steps)
+            base_cols = {b.uid: base.column(b.uid) for b in world.bodies if b.dynamic}
+            activation = {uid: a for uid, a in replay.activation.items() if uid in bodies}
+            for uid, bc in base_cols.items():
+                i = col[uid]
+                hi = min(activation.get(uid, steps), steps) + 1  # rows up to the activation row are base
+                pos[:hi, i] = base.positions[:hi, bc]
+                ang[:hi, i] = base.angles[:hi, bc]
+                vel[:hi, i] = base.velocities[:hi, bc]
+                angv[:hi, i] = base.angular_velocities[:hi, bc]
+                awake[:hi, i] = replay.base_awake[:hi, bc]
+            for b in world.bodies:
+                if not b.dynamic:
+                    pos[:, col[b.uid]] = pos[0, col[b.uid]]
+                    ang[:, col[b.uid]] = ang[0, col[b.uid]]
+            replayed = {uid for uid in base_cols if activation.get(uid, steps) > first}
+            for uid in replayed:
+                body = bodies[uid]
+                body.body_type = pymunk.Body.KINEMATIC
+                for shape in body.shapes:
+                    shape.filter = _FILTER_REPLAY
+            for uid in base_cols:
+                if activation.get(uid, steps) == first:
+                    self._set_state(bodies[uid], pos, ang, vel, angv, col[uid], first)
+        else:
+            for b in world.bodies:
+                if not b.dynamic:
+                    pos[:, col[b.uid]] = b.position
+                    ang[:, col[b.uid]] = b.angle
+
+        fps = float(world.steps_per_second)
+        active = [(i, body) for i, body in dyn if replay is None or activation.get(ids[i], steps) <= first]
+        pending = sorted(
+            (a, uid) for uid, a in activation.items() if first < a < steps
+        )
+        kin = [(col[uid], bodies[uid]) for uid in base_cols if activation.get(uid, steps) > first]
+        # Per active column: first recorded row and the recorded values (numpy-filled at the end).
+        rec: dict[int, tuple[int, list[Any], list[float], list[Any], list[float], list[bool]]] = {
+            i: (first + 1, [], [], [], [], []) for i, _ in active
+        }
+        zero = (0.0, 0.0)
+        get_pos, get_angle, get_vel = _lib.cpBodyGetPosition, _lib.cpBodyGetAngle, _lib.cpBodyGetVelocity
+        get_angvel, is_sleeping = _lib.cpBodyGetAngularVelocity, _lib.cpBodyIsSleeping
+        vmax2 = max((float(vel[first, i, 0] ** 2 + vel[first, i, 1] ** 2) for i, _ in active), default=0.0)
+        step = space.step
+        self.stepping = True
+        for k in range(first, steps):
+            self.frame = k
+            while pending and pending[0][0] == k:
+                _, uid = pending.pop(0)
+                body = bodies[uid]
+                body.body_type = pymunk.Body.DYNAMIC
+                for shape in body.shapes:
+                    shape.filter = _FILTER_DYNAMIC
+                self._set_state(body, pos, ang, vel, angv, col[uid], k)
+                kin = [(i, b) for i, b in kin if b is not body]
+                active.append((col[uid], body))
+                rec[col[uid]] = (k + 1, [], [], [], [], [])
+            for i, body in kin:
+                self._set_kinematic(body, pos, ang, i, k, fps)
+            n_sub = eng.substeps_for(vmax2, fps)
+            dt = 1.0 / fps / n_sub
+            for j in range(n_sub):
+                self.substep = j
+                step(dt)
+            vmax2 = 0.0
+            for i, body in active:
+                # Direct Chipmunk getters: the recording is the hot loop of a run.
+                h = body._body
+                _, p_, a_, v_, w_, aw_ = rec[i]
+                p = get_pos(h)
+                p_.append((p.x, p.y))
+                a_.append(get_angle(h))
+                if is_sleeping(h):  # Box2D zeroes a sleeping body's velocity
+                    v_.append(zero)
+                    w_.append(0.0)
+                    aw_.append(False)
+                else:
+                    v = get_vel(h)
+                    v_.append((v.x, v.y))
+                    vmax2 = max(vmax2, v.x * v.x + v.y * v.y)
+                    w_.append(get_angvel(h))
+                    aw_.append(True)
+        for i, (r0, p_, a_, v_, w_, aw_) in rec.items():
+            if p_:
+                pos[r0:, i] = p_
+                ang[r0:, i] = a_
+                vel[r0:, i] = v_
+                angv[r0:, i] = w_
+                awake[r0:, i] = aw_
+        self.stepping = False
+        traj = Trajectory(ids=ids, positions=pos, angles=ang, velocities=vel, angular_velocities=angv)
+        contacts: dict[PairKey, tuple[Interval, ...]] = self.contacts.result(steps)
+        sensors: dict[SensorKey, tuple[Interval, ...]] = self.sensors.result(steps)
+        return RawRun(traj, awake, ContactLog(steps, contacts, sensors))
+
+    @staticmethod
+    def _set_state(body: pymunk.Body, pos: np.ndarray, ang: np.ndarray, vel: np.ndarray, angv: np.ndarray,
+                   i: int, row: int) -> None:
+        body.position = (float(pos[row, i, 0]), float(pos[row, i, 1]))
+        body.angle = float(ang[row, i])
+        body.velocity = (float(vel[row, i, 0]), float(vel[row, i, 1]))
+        body.angular_velocity = float(angv[row, i])
+
+    @staticmethod
+    def _set_kinematic(body: pymunk.Body, pos: np.ndarray, ang: np.ndarray, i: int, k: int, fps: float) -> None:
+        x0, y0 = float(pos[k, i, 0]), float(pos[k, i, 1])
+        x1, y1 = float(pos[k + 1, i, 0]), float(pos[k + 1, i, 1])
+        a0, a1 = float(ang[k, i]), float(ang[k + 1, i])
+        body.position = (x0, y0)
+        body.angle = a0
+        body.velocity = ((x1 - x0) * fps, (y1 - y0) * fps)
+        body.angular_velocity = (a1 - a0) * fps
