@@ -27,6 +27,8 @@ class CheckedTree:
     tree: Tree
     binding_types: dict[str, DslType]
     type: DslType
+    #: Output type of every call of the checked tree.
+    call_types: dict[Expr, DslType]
 
 
 def _where(pos: Position | None) -> tuple[int | None, int | None]:
@@ -63,6 +65,7 @@ def resolve_module(name: str, pos: Position | None) -> ModuleSpec:
 class _Checker:
     def __init__(self) -> None:
         self.env: dict[str, DslType] = {}
+        self.call_types: dict[Expr, DslType] = {}
 
     def check_tree(self, tree: Tree) -> CheckedTree:
         bindings = []
@@ -73,7 +76,7 @@ class _Checker:
             self.env[b.name] = typ
             bindings.append(Binding(b.name, expr, b.pos))
         body, typ = self.check(tree.body)
-        return CheckedTree(Tree(tuple(bindings), body), dict(self.env), typ)
+        return CheckedTree(Tree(tuple(bindings), body), dict(self.env), typ, self.call_types)
 
     def check(self, expr: Expr) -> tuple[Expr, DslType]:
         if isinstance(expr, Ref):
@@ -105,7 +108,7 @@ class _Checker:
                 f"({spec.signature_text()}), found {len(call.args)}",
                 *_where(call.pos),
             )
-        checked: list[tuple[Expr, DslType]] = [self.check(a) for a in call.args[:n_inputs]]
+        checked = [self.check_input(spec, i, a) for i, a in enumerate(call.args[:n_inputs])]
         overload, args = self._choose_overload(spec, call, checked)
         sides: list[Expr] = []
         for k, (arg, expected) in enumerate(zip(call.args[n_inputs:], spec.side_inputs), start=n_inputs + 1):
@@ -117,7 +120,27 @@ class _Checker:
                     *_where(_pos_of(arg) or call.pos),
                 )
             sides.append(Literal(canonical_value(arg.value, expected, spec.name, k, arg.pos), arg.pos))
-        return Call(spec.name, tuple(args) + tuple(sides), call.pos), overload.output
+        for a in args:
+            if isinstance(a, Call) and a.module == "Unique":
+                self.call_types.setdefault(a, DslType.OBJECT)
+        checked_call = Call(spec.name, tuple(args) + tuple(sides), call.pos)
+        self.call_types[checked_call] = overload.output
+        return checked_call, overload.output
+
+    def check_input(self, spec: ModuleSpec, index: int, arg: Expr) -> tuple[Expr, DslType]:
+        """Check one (non-side) input; a quoted value is allowed where a Color, Shape or Size is expected."""
+        if not (isinstance(arg, Literal) and isinstance(arg.value, str)):
+            return self.check(arg)
+        expected = {ov.inputs[index] for ov in spec.overloads}
+        if len(expected) == 1 and next(iter(expected)) in SIDE_INPUT_TYPES:
+            (typ,) = expected
+            return Literal(canonical_value(arg.value, typ, spec.name, index + 1, arg.pos), arg.pos), typ
+        want = " or ".join(sorted(str(t) for t in expected))
+        raise TypeCheckError(
+            f"{spec.name}: argument {index + 1} expects {want}, found a quoted value {arg.value!r} "
+            "(quoted values are colours, shapes and sizes)",
+            *_where(arg.pos),
+        )
 
     def _choose_overload(
         self, spec: ModuleSpec, call: Call, checked: list[tuple[Expr, DslType]]

@@ -108,29 +108,3 @@ class Plan:
             assert typ is not None
             entries.append(TraceEntry(step.out, self.texts[step.out], typ, value))
         return entries
-
-
-def expression_types(tree: Tree, binding_types: dict[str, DslType]) -> dict[Expr, DslType]:
-    """Output type of every call in a checked tree (keyed by the call node)."""
-    from .registry import REGISTRY as REG
-
-    types: dict[Expr, DslType] = {}
-
-    def visit(expr: Expr) -> DslType | None:
-        if isinstance(expr, Ref):
-            return binding_types[expr.name]
-        if isinstance(expr, Literal):
-            return DslType.INTEGER if isinstance(expr.value, int) else None
-        arg_types = [visit(a) for a in expr.args]
-        spec = REG[expr.module]
-        n = len(spec.overloads[0].inputs)
-        for ov in spec.overloads:
-            if list(ov.inputs) == arg_types[:n]:
-                types[expr] = ov.output
-                return ov.output
-        raise AssertionError(f"unchecked call {format_expr(expr)}")
-
-    for b in tree.bindings:
-        visit(b.expr)
-    visit(tree.body)
-    return types

@@ -88,7 +88,10 @@ def parse_tree(text: str) -> Tree:
                 f"the program ends too early; expected {_expected(err)} (an unclosed '('?)",
                 *_end_position(text),
             ) from None
-        if tok.type == "RPAR" and "RPAR" not in (err.expected or ()):
+        before = text[: tok.start_pos].rstrip() if tok.start_pos is not None else ""
+        if tok.type == "RPAR" and before.endswith(","):
+            msg = "unexpected ')' after ',': a trailing comma needs an argument after it (remove the ',')"
+        elif tok.type == "RPAR" and "RPAR" not in (err.expected or ()):
             msg = "unexpected ')': it closes no open parenthesis (one ')' too many?)"
         elif tok.type == "NAME" and "RPAR" in (err.expected or ()):
             msg = f"unexpected {str(tok)!r}; expected ',' or ')' (a missing comma?)"

@@ -6,11 +6,12 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from .checker import check_tree
-from .evaluator import Plan, TraceEntry, expression_types
+from .evaluator import Plan, TraceEntry
 from .parser import parse_tree
 from .simulation import Event, Simulation
 from .syntax import Tree, format_tree
 from .types import INVALID, INVALID_JSON, DslType
+from .vocabulary import ORIGINAL_EVENT_TYPE
 
 
 class Program:
@@ -25,7 +26,7 @@ class Program:
         self.tree: Tree = checked.tree
         self.type: DslType = checked.type
         self.binding_types = checked.binding_types
-        self._plan = Plan(self.tree, expression_types(self.tree, checked.binding_types))
+        self._plan = Plan(self.tree, checked.call_types)
 
     # -- construction -------------------------------------------------------------------------------
 
@@ -55,7 +56,7 @@ class Program:
         if outputs is not None:
             values = {e.expression: e.value for e in self.trace(outputs)}
             for node in nodes:
-                node["_output"] = to_json(values.get(node.pop("_text"), INVALID))
+                node["_output"] = to_json(values.get(node.pop("_text"), INVALID), original=True)
         else:
             for node in nodes:
                 node.pop("_text")
@@ -92,14 +93,18 @@ def parse(text: str) -> Program:
     return Program.parse(text)
 
 
-def to_json(value: Any) -> Any:
-    """A JSON-ready form of any DSL value (the original engine's conventions)."""
+def to_json(value: Any, original: bool = False) -> Any:
+    """A JSON-ready form of any DSL value (INVALID as the original's ``"__INVALID__"``).
+
+    With ``original=True`` event types use the original simulator's strings (``ContainerEndUp``...).
+    """
     if value is INVALID:
         return INVALID_JSON
     if isinstance(value, Event):
-        return {"id": value.id, "type": value.type, "step": value.step, "objects": list(value.objects)}
+        etype = ORIGINAL_EVENT_TYPE[value.type] if original else value.type
+        return {"id": value.id, "type": etype, "step": value.step, "objects": list(value.objects)}
     if isinstance(value, tuple):
-        return [to_json(v) for v in value]
+        return [to_json(v, original) for v in value]
     return value
 
 

@@ -151,7 +151,8 @@ def _events(graph: CausalGraphRecord, where: str) -> tuple[list[Event], nx.DiGra
 def _build(output: BareOutput, objects: tuple[SimObject, ...], where: str, **kw: Any) -> Simulation:
     events, graph = _events(output.causal_graph, where)
     end_steps = [e.step for e in events if e.type == END]
-    steps = end_steps[0] if end_steps else max((e.step for e in events), default=0)
+    state_steps = [s.step for s in output.scene_states or ()]
+    steps = end_steps[0] if end_steps else max(state_steps + [e.step for e in events] + [0])
     try:
         return Simulation(objects, events, steps=steps, causal_graph=graph,
                           meta={"source": where, "video_filename": output.video_filename}, **kw)
@@ -178,9 +179,20 @@ def _variation_source(
 
 
 def _variation(output: BareOutput, object_id: int, factual: tuple[SimObject, ...], where: str) -> Simulation:
-    vwhere = f"{where} variations_outputs[{object_id!r}]"
+    vwhere = f"{where} variations_outputs[{str(object_id)!r}]"
     if output.scene_states:
         objects = _objects(output, vwhere)
+        allowed = {o.id for o in factual} - {object_id}
+        ids = {o.id for o in objects}
+        if object_id in ids:
+            raise SimulationFileError(
+                f"{vwhere}: the variation without object {object_id} still contains object {object_id}"
+            )
+        if ids - allowed:
+            raise SimulationFileError(
+                f"{vwhere}: objects {sorted(ids - allowed)} are not in the original scene "
+                f"(a variation holds the original objects less {object_id})"
+            )
     else:  # only the events were recorded: the scene is the factual one without the object
         objects = tuple(o for o in factual if o.id != object_id)
     return _build(output, objects, vwhere, removed=(object_id,))
