@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_physics_micro import world
+from test_physics_micro import each_engine, world
 
 from craft_dsl.errors import CounterfactualUnavailable
 from craft_dsl.physics import simulate
@@ -47,19 +47,21 @@ def assert_clean(factual: LiveSimulation, removed: int) -> LiveSimulation:
     return cf
 
 
+@each_engine
 @pytest.mark.parametrize("scene", range(1, 21))
-def test_every_removal_is_clean(scene: int) -> None:
+def test_every_removal_is_clean(scene: int, engine: str) -> None:
     for seed in (0, 1, 2):
-        sim = simulate(scene, seed=seed)
+        sim = simulate(scene, seed=seed, engine=engine)
         for uid in sorted(sim.dynamic_ids):
             cf = assert_clean(sim, uid)
             # the affected set is closed: every affected body was reached through contacts from `uid`
             assert all(0 <= a < sim.steps for a in cf.activation.values())
 
 
-def test_counterfactual_is_deterministic_and_nested_counterfactuals_are_clean() -> None:
-    sim = simulate(18, seed=4)
-    again = simulate(18, seed=4)
+@each_engine
+def test_counterfactual_is_deterministic_and_nested_counterfactuals_are_clean(engine: str) -> None:
+    sim = simulate(18, seed=4, engine=engine)
+    again = simulate(18, seed=4, engine=engine)
     for uid in sorted(sim.dynamic_ids):
         a, b = sim.counterfactual(uid), again.counterfactual(uid)
         assert a.events == b.events and a.activation == b.activation
@@ -74,11 +76,12 @@ def test_counterfactual_is_deterministic_and_nested_counterfactuals_are_clean() 
         assert nested.removed == (first, uid)
 
 
-def test_removing_an_untouched_object_changes_only_its_own_events() -> None:
+@each_engine
+def test_removing_an_untouched_object_changes_only_its_own_events(engine: str) -> None:
     # A small cube rests on a large cube; a circle far away falls on the ground by itself.
     sim = simulate(world(make_dynamic(0, "cube", "red", "large", (0.0, -2.8 + 0.02)),
                          make_dynamic(0, "cube", "blue", "small", (0.0, 3.0)),
-                         make_dynamic(0, "circle", "green", "small", (-15.0, 6.0))), steps=300)
+                         make_dynamic(0, "circle", "green", "small", (-15.0, 6.0))), steps=300, engine=engine)
     loner = 0  # the circle, created last
     cf = sim.counterfactual(loner)
     assert cf.affected == frozenset()
@@ -87,10 +90,11 @@ def test_removing_an_untouched_object_changes_only_its_own_events() -> None:
     ]
 
 
-def test_removing_a_support_lets_the_body_above_fall_to_the_ground() -> None:
+@each_engine
+def test_removing_a_support_lets_the_body_above_fall_to_the_ground(engine: str) -> None:
     sim = simulate(world(make_dynamic(0, "cube", "red", "large", (0.0, -2.8 + 0.02)),
                          make_dynamic(0, "cube", "blue", "small", (0.0, 3.0)),
-                         make_dynamic(0, "circle", "green", "small", (-15.0, 6.0))), steps=300)
+                         make_dynamic(0, "circle", "green", "small", (-15.0, 6.0))), steps=300, engine=engine)
     support, top, loner = 2, 1, 0
     assert not any(sim.ground_id in e.objects for e in sim.events if top in e.objects)
     cf = assert_clean(sim, support)
@@ -100,9 +104,11 @@ def test_removing_a_support_lets_the_body_above_fall_to_the_ground() -> None:
     assert cf.object(top).end.position[1] < sim.object(top).end.position[1] - 3.0
 
 
-def test_ground_and_basket_cannot_be_removed_but_a_platform_can() -> None:
+@each_engine
+def test_ground_and_basket_cannot_be_removed_but_a_platform_can(engine: str) -> None:
     platform = make_static(0, "platform", (0.0, 5.0))
-    sim = simulate(world(make_dynamic(0, "cube", "red", "small", (0.0, 8.0)), statics=(platform,)), steps=200)
+    sim = simulate(world(make_dynamic(0, "cube", "red", "small", (0.0, 8.0)), statics=(platform,)), steps=200,
+                   engine=engine)
     with pytest.raises(CounterfactualUnavailable):
         sim.counterfactual(sim.ground_id)
     with pytest.raises(CounterfactualUnavailable):

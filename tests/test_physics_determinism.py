@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_physics_micro import each_engine
 
 from craft_dsl.physics import perturb_world, simulate
 from craft_dsl.physics.live import LiveSimulation
@@ -19,8 +20,8 @@ ROOT = Path(__file__).resolve().parents[1]
 FINGERPRINT = """
 import hashlib
 from craft_dsl.physics import simulate
-def fingerprint(scene, seed):
-    sim = simulate(scene, seed=seed)
+def fingerprint(scene, seed, engine):
+    sim = simulate(scene, seed=seed, engine=engine)
     h = hashlib.sha256()
     t = sim.trajectory
     for a in (t.positions, t.angles, t.velocities, t.angular_velocities):
@@ -33,33 +34,36 @@ def fingerprint(scene, seed):
 """
 
 
-def _fingerprint(scene: int, seed: int) -> str:
+def _fingerprint(scene: int, seed: int, engine: str) -> str:
     namespace: dict[str, object] = {"hashlib": hashlib}
     exec(FINGERPRINT, namespace)
-    return namespace["fingerprint"](scene, seed)  # type: ignore[operator]
+    return namespace["fingerprint"](scene, seed, engine)  # type: ignore[operator]
 
 
-def test_same_scene_and_seed_give_identical_runs() -> None:
-    a, b = simulate(2, seed=5), simulate(2, seed=5)
+@each_engine
+def test_same_scene_and_seed_give_identical_runs(engine: str) -> None:
+    a, b = simulate(2, seed=5, engine=engine), simulate(2, seed=5, engine=engine)
     assert a.trajectory is not None and b.trajectory is not None
     for name in ("positions", "angles", "velocities", "angular_velocities"):
         assert np.array_equal(getattr(a.trajectory, name), getattr(b.trajectory, name))
     assert a.events == b.events
-    assert a.meta == {"scene": 2, "seed": 5, "engine": "pymunk"}
-    assert simulate(2, seed=6).events != a.events
+    assert a.meta == {"scene": 2, "seed": 5, "engine": engine}
+    assert simulate(2, seed=6, engine=engine).events != a.events
 
 
-def test_runs_are_identical_across_processes() -> None:
-    here = _fingerprint(9, 2)
+@each_engine
+def test_runs_are_identical_across_processes(engine: str) -> None:
+    here = _fingerprint(9, 2, engine)
     code = FINGERPRINT + "\nimport sys\n# other spaces first: a process-global counter must not matter\n" \
-        "simulate(3, seed=1)\nprint(fingerprint(9, 2))\n"
+        f"simulate(3, seed=1, engine={engine!r})\nprint(fingerprint(9, 2, {engine!r}))\n"
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == here
 
 
-def test_simulate_accepts_a_world_and_keeps_start_state() -> None:
+@each_engine
+def test_simulate_accepts_a_world_and_keeps_start_state(engine: str) -> None:
     world = sample_world(5, 3)
-    sim = simulate(world, steps=30)
+    sim = simulate(world, steps=30, engine=engine)
     assert sim.steps == 30 and sim.trajectory is not None and sim.trajectory.steps == 30
     assert sim.events[0].type == "Start" and sim.events[-1].type == "End" and sim.events[-1].step == 30
     for spec in world.bodies:
@@ -67,7 +71,7 @@ def test_simulate_accepts_a_world_and_keeps_start_state() -> None:
         assert obj.start.position == spec.position and obj.start.angle == spec.angle
         if not spec.dynamic:
             assert obj.end.velocity == (0.0, 0.0) and not obj.is_moving(-1)
-    with pytest.raises(ValueError, match="available: pymunk"):
+    with pytest.raises(ValueError, match="available: pymunk, box2d"):
         simulate(world, engine="box3d")
 
 
@@ -88,8 +92,9 @@ def test_perturbation_follows_the_original_noise_model() -> None:
         assert after.position == pytest.approx((before.position[0] + shift, before.position[1] + shift))
 
 
-def test_perturbed_simulation_has_live_unperturbed_again_counterfactuals() -> None:
-    sim = simulate(1, seed=0, steps=200)
+@each_engine
+def test_perturbed_simulation_has_live_unperturbed_again_counterfactuals(engine: str) -> None:
+    sim = simulate(1, seed=0, steps=200, engine=engine)
     pert = sim.perturbed(3)
     assert isinstance(pert, LiveSimulation)
     assert pert.meta["perturbation_seed"] == 3 and pert.world is not None
@@ -98,3 +103,6 @@ def test_perturbed_simulation_has_live_unperturbed_again_counterfactuals() -> No
     uid = min(pert.dynamic_ids)
     cf = pert.counterfactual(uid)
     assert cf.world == pert.world.without(uid)  # built on the perturbed start, not perturbed again
+    # perturbed and counterfactual runs use their parent's engine
+    assert pert.engine is sim.engine and cf.engine is sim.engine and sim.engine.name == engine
+    assert pert.meta["engine"] == cf.meta["engine"] == engine

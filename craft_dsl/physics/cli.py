@@ -1,4 +1,4 @@
-"""Command-line commands of the physics package: ``simulate`` and ``scenes stats``."""
+"""Command-line commands of the physics package: ``simulate``, ``scenes stats`` and ``engines compare``."""
 
 from __future__ import annotations
 
@@ -20,8 +20,11 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+ENGINE_CHOICES = ("pymunk", "box2d")
+
+
 def _scene_list(text: str | None) -> list[int]:
-    if not text:
+    if not text or text.strip() == "all":
         return list(range(1, 21))
     out: list[int] = []
     for part in text.split(","):
@@ -45,13 +48,28 @@ def cmd_scene_stats(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_engines_compare(args: argparse.Namespace) -> int:
+    from .compare import compare_engines, format_comparison, stderr_progress
+
+    engines = tuple(args.engines.split(","))
+    if len(engines) != 2 or any(e not in ENGINE_CHOICES for e in engines):
+        print(f"error: --engines takes two of {', '.join(ENGINE_CHOICES)}, e.g. pymunk,box2d", file=sys.stderr)
+        return 2
+    cmp = compare_engines(_scene_list(args.scenes), range(args.seeds), engines=(engines[0], engines[1]),
+                          steps=args.steps, jobs=args.jobs, perturb=args.perturb,
+                          progress=None if args.quiet else stderr_progress)
+    print(format_comparison(cmp, markdown=args.markdown))
+    print(f"done in {cmp.seconds:.1f} s", file=sys.stderr)
+    return 0
+
+
 def add_commands(subparsers: Any) -> None:
-    """Register ``simulate`` and ``scenes stats`` on the main CLI's subparsers."""
+    """Register ``simulate``, ``scenes stats`` and ``engines compare`` on the main CLI's subparsers."""
     sim = subparsers.add_parser("simulate", help="simulate a scene with live physics and save it as JSON")
     sim.add_argument("--scene", required=True, help="scene id 1-20 or a layout file")
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--steps", type=int, default=600)
-    sim.add_argument("--engine", default="pymunk")
+    sim.add_argument("--engine", default="pymunk", choices=ENGINE_CHOICES, help="physics engine")
     sim.add_argument("--out", required=True, help="output JSON (original format)")
     sim.add_argument("--no-variations", action="store_true", help="do not run the counterfactuals")
     sim.set_defaults(func=cmd_simulate)
@@ -66,6 +84,22 @@ def add_commands(subparsers: Any) -> None:
     stats.add_argument("--seeds", type=int, default=200, help="seeds 0..N-1 per scene")
     stats.add_argument("--scenes", help="e.g. 1,2,5-7 (default: all 20)")
     stats.add_argument("--steps", type=int, default=600)
-    stats.add_argument("--engine", default="pymunk")
+    stats.add_argument("--engine", default="pymunk", choices=ENGINE_CHOICES, help="physics engine")
     stats.add_argument("--markdown", action="store_true", help="print a Markdown table")
     stats.set_defaults(func=cmd_scene_stats)
+
+    engines = subparsers.add_parser("engines", help="physics engine utilities")
+    engines_sub = engines.add_subparsers(dest="engines_command", required=True, metavar="SUBCOMMAND")
+    comp = engines_sub.add_parser("compare", help="how much question answers depend on the physics engine")
+    comp.add_argument("--scenes", default="all", help="all, or e.g. 1,2,5-7")
+    comp.add_argument("--seeds", type=int, default=200, help="seeds 0..N-1 per scene")
+    comp.add_argument("--steps", type=int, default=600)
+    comp.add_argument("--engines", default="pymunk,box2d",
+                      help="two engines: questions are instantiated on the first and re-run on the second")
+    comp.add_argument("--jobs", type=int, default=1, help="worker processes (results do not depend on it)")
+    comp.add_argument("--perturb", type=float, default=0.0, metavar="AMOUNT",
+                      help="start the second run from the original's perturbation (e.g. 0.02; perturbation seed ="
+                           " scene seed): with the same engine twice, a chaos baseline")
+    comp.add_argument("--markdown", action="store_true", help="print Markdown tables")
+    comp.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    comp.set_defaults(func=cmd_engines_compare)

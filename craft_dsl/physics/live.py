@@ -40,15 +40,31 @@ from .events import events_from_log
 _INF = math.inf
 
 
+#: Engine names accepted by :func:`get_engine` and ``simulate(..., engine=...)``.
+ENGINES = ("pymunk", "box2d")
+
+
 def get_engine(engine: str | PhysicsEngine) -> PhysicsEngine:
-    """An engine instance from a name ("pymunk") or an instance."""
+    """An engine instance from a name ("pymunk", "box2d") or an instance.
+
+    Box2D is an optional extra, imported only when asked for."""
     if not isinstance(engine, str):
         return engine
     if engine == "pymunk":
         from .pymunk_engine import PymunkEngine
 
         return PymunkEngine()
-    raise ValueError(f"unknown physics engine {engine!r}; available: pymunk")
+    if engine == "box2d":
+        try:
+            from .box2d_engine import Box2DEngine
+        except ModuleNotFoundError as exc:  # the optional extra is missing
+            if exc.name != "Box2D":
+                raise
+            raise ModuleNotFoundError(
+                "the box2d engine needs pybox2d: pip install 'craft-dsl[box2d]'"
+            ) from exc
+        return Box2DEngine()
+    raise ValueError(f"unknown physics engine {engine!r}; available: {', '.join(ENGINES)}")
 
 
 def objects_from_run(world: WorldSpec, raw: RawRun) -> list[SimObject]:
