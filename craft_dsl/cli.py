@@ -53,11 +53,23 @@ def _load_program(args: argparse.Namespace) -> Program:
     return Program.parse(_read_program(args.program))
 
 
-def cmd_run(args: argparse.Namespace) -> int:
-    from .recorded import load_simulation
+def _simulation(args: argparse.Namespace) -> Any:
+    if args.sim and args.scene is not None:
+        raise CraftError("give either --sim FILE or --scene N, not both")
+    if args.sim:
+        from .recorded import load_simulation
 
+        return load_simulation(args.sim)
+    if args.scene is None:
+        raise CraftError("give a simulation: --sim FILE (recorded) or --scene N [--seed S] (live physics)")
+    from .physics import simulate
+
+    return simulate(args.scene, seed=args.seed, engine=args.engine)
+
+
+def cmd_run(args: argparse.Namespace) -> int:
     program = _load_program(args)
-    sim = load_simulation(args.sim)
+    sim = _simulation(args)
     if args.trace:
         entries = program.trace(sim)
         if args.json:
@@ -115,7 +127,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="run a program over a recorded simulation")
     run.add_argument("program", nargs="?", help="program text, or @file")
-    run.add_argument("--sim", required=True, help="simulation JSON file (CRAFT format)")
+    run.add_argument("--sim", help="recorded simulation JSON file (CRAFT format)")
+    run.add_argument("--scene", type=int, help="or simulate this scene layout (1-20) live")
+    run.add_argument("--seed", type=int, default=0, help="seed of the live simulation (default 0)")
+    run.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"),
+                     help="physics engine of the live simulation (default pymunk)")
     run.add_argument("--nodes", help="read the program as a CLEVR/CRAFT node list from this JSON file")
     run.add_argument("--param", action="append", default=[], metavar="<Z>=small",
                      help="bind a template placeholder of a node list (repeatable)")

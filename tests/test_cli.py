@@ -107,3 +107,15 @@ def test_installed_script_runs() -> None:
     res = subprocess.run([*cmd, "run", FALL, "--sim", E1], capture_output=True, text=True, check=False)
     assert res.returncode == 0, res.stderr
     assert res.stdout == "2\n"
+
+
+def test_run_on_a_live_simulation(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, _ = run_cli(capsys, "run", "Count(FilterDynamic(SceneAtStart()))", "--scene", "2", "--seed", "1")
+    assert (code, out) == (0, "10\n")
+
+
+def test_run_needs_exactly_one_simulation(capsys: pytest.CaptureFixture[str]) -> None:
+    code, _, err = run_cli(capsys, "run", FALL)
+    assert code == 2 and "--sim FILE" in err and "--scene N" in err
+    code, _, err = run_cli(capsys, "run", FALL, "--sim", E1, "--scene", "3")
+    assert code == 2 and "not both" in err
