@@ -31,50 +31,16 @@ from __future__ import annotations
 import warnings
 from typing import Any
 
-import numpy as np
-
 with warnings.catch_warnings():  # SWIG's builtin types trigger import-time DeprecationWarnings on 3.12+
     warnings.simplefilter("ignore", DeprecationWarning)
     import Box2D
 
-from ..simulation import Trajectory
 from ..world import DENSITY, FRICTION, RESTITUTION, BodySpec, Segment, WorldSpec
-from .engine import ContactLog, Interval, PairKey, RawRun, ReplayPlan, SensorKey, pair_key
+from .engine import RawRun, ReplayPlan
+from .recording import BodyState, ContactRecorder, FrameIntervalRecorder, StateRecorder
 
 #: The basket sensor's category bits in the original (``SENSOR_BASKET``); informative only.
 SENSOR_CATEGORY = 0x0042
-
-
-class _IntervalRecorder:
-    """Begin/end callbacks stamped with the frame counter -> half-open frame intervals per key."""
-
-    def __init__(self) -> None:
-        self.open: dict[Any, list[list[int]]] = {}
-
-    def begin(self, key: Any, frame: int) -> None:
-        ivs = self.open.get(key)
-        if ivs is None:
-            self.open[key] = [[frame, -1]]
-            return
-        last = ivs[-1]
-        if last[1] == -1 or last[1] > frame:  # still touching in this frame: the same contact continues
-            last[1] = -1
-        else:
-            ivs.append([frame, -1])
-
-    def end(self, key: Any, frame: int) -> None:
-        ivs = self.open.get(key)
-        if ivs is None or ivs[-1][1] != -1:
-            return
-        # A contact that began and ended within one step still touched in that frame.
-        ivs[-1][1] = max(frame, ivs[-1][0] + 1)
-
-    def result(self, steps: int) -> dict[Any, tuple[Interval, ...]]:
-        return {
-            k: tuple((s, steps if e == -1 else min(e, steps)) for s, e in v)
-            for k, v in sorted(self.open.items())
-            if v
-        }
 
 
 class _Listener(Box2D.b2ContactListener):
@@ -185,141 +151,76 @@ class _Run:
         self.steps = steps
         self.replay = replay
         self.frame = 0
-        self.contacts = _IntervalRecorder()
-        self.sensors = _IntervalRecorder()
+        self.log = ContactRecorder(FrameIntervalRecorder)
 
     def contact_changed(self, contact: Any, begin: bool) -> None:
-        fa, fb = contact.fixtureA, contact.fixtureB
-        ua, pa, sa = fa.userData
-        ub, pb, sb = fb.userData
-        key: SensorKey | PairKey
-        if sa or sb:
-            rec, key = self.sensors, ((ua, ub) if sa else (ub, ua))
-        else:
-            rec, key = self.contacts, pair_key(ua, pa + contact.childIndexA, ub, pb + contact.childIndexB)
+        ua, pa, sa = contact.fixtureA.userData
+        ub, pb, sb = contact.fixtureB.userData
+        rec, key = self.log.route(ua, pa + contact.childIndexA, sa, ub, pb + contact.childIndexB, sb)
         if begin:
             rec.begin(key, self.frame)
         else:
             rec.end(key, self.frame)
 
     def execute(self) -> RawRun:
-        eng, world, steps, replay = self.engine, self.world, self.steps, self.replay
-        ids = tuple(b.uid for b in world.bodies)
-        n = len(ids)
-        col = {uid: i for i, uid in enumerate(ids)}
-        pos = np.zeros((steps + 1, n, 2))
-        ang = np.zeros((steps + 1, n))
-        vel = np.zeros((steps + 1, n, 2))
-        angv = np.zeros((steps + 1, n))
-        awake = np.zeros((steps + 1, n), dtype=bool)
-        for b in world.bodies:
-            i = col[b.uid]
-            pos[:, i] = b.position
-            ang[:, i] = b.angle
-            if b.dynamic:
-                vel[0, i] = b.velocity
-                angv[0, i] = b.angular_velocity
-                awake[0, i] = True
-
-        first = 0
-        activation: dict[int, int] = {}
-        dynamic_uids = [b.uid for b in world.bodies if b.dynamic]
-        replayed: set[int] = set()
-        if replay is not None:
-            base = replay.base
-            first = min(replay.first_frame, steps)
-            activation = {uid: a for uid, a in replay.activation.items() if uid in col}
-            for uid in dynamic_uids:
-                i, bc = col[uid], base.column(uid)
-                hi = min(activation.get(uid, steps), steps) + 1  # rows up to the activation row are base
-                pos[:hi, i] = base.positions[:hi, bc]
-                ang[:hi, i] = base.angles[:hi, bc]
-                vel[:hi, i] = base.velocities[:hi, bc]
-                angv[:hi, i] = base.angular_velocities[:hi, bc]
-                awake[:hi, i] = replay.base_awake[:hi, bc]
-            replayed = {uid for uid in dynamic_uids if activation.get(uid, steps) > first}
-        b2w, bodies = eng.build_world(world, frozenset(replayed))
-        if replay is not None:
-            for uid in dynamic_uids:
-                if uid not in replayed:
-                    self._set_state(bodies[uid], pos, ang, vel, angv, col[uid], first)
+        eng, world, steps = self.engine, self.world, self.steps
+        rec: StateRecorder[Any] = StateRecorder(world, steps, self.replay)
+        b2w, bodies = eng.build_world(world, rec.replayed)
+        rec.attach(bodies)
+        first = rec.first
+        if self.replay is not None:
+            for i, body in rec.active:
+                _set_state(body, rec.state(i, first), wake=True)
         listener = _Listener(self)
         b2w.contactListener = listener
 
         fps = float(world.steps_per_second)
         dt = 1.0 / fps
-        active = [(col[uid], bodies[uid]) for uid in dynamic_uids if uid not in replayed]
-        pending = sorted((a, uid) for uid, a in activation.items() if first < a < steps)
-        kin = [(col[uid], bodies[uid]) for uid in dynamic_uids if uid in replayed]
-        rec: dict[int, tuple[int, list[Any], list[float], list[Any], list[float], list[bool]]] = {
-            i: (first + 1, [], [], [], [], []) for i, _ in active
-        }
+        active, rows = rec.active, rec.rows
         zero = (0.0, 0.0)
         step, vi, pi = b2w.Step, eng.velocity_iterations, eng.position_iterations
         find_new_contacts = b2w.contactManager.FindNewContacts
         for k in range(first, steps):
             self.frame = k
-            if pending and pending[0][0] == k:
-                while pending and pending[0][0] == k:
-                    _, uid = pending.pop(0)
+            due = rec.due(k)
+            if due:
+                for uid in due:
                     body = bodies[uid]
                     body.type = Box2D.b2_dynamicBody  # drops its contacts (EndContact stamped k)
-                    self._set_state(body, pos, ang, vel, angv, col[uid], k)
-                    kin = [(i, b) for i, b in kin if b is not body]
-                    active.append((col[uid], body))
-                    rec[col[uid]] = (k + 1, [], [], [], [], [])
+                    _set_state(body, rec.state(rec.col[uid], k), wake=True)
+                    rec.activate(uid, body, k)
                 find_new_contacts()  # so this step's Collide sees them again (and continues the contacts)
-            for i, body in kin:
-                self._set_kinematic(body, pos, ang, i, k, fps)
+            for i, body in rec.kinematic:
+                _set_state(body, rec.kinematic_state(i, k, fps), wake=False)
             step(dt, vi, pi)
             for i, body in active:
-                _, p_, a_, v_, w_, aw_ = rec[i]
-                if body.awake:
+                _, p_, a_, v_, w_, aw_ = rows[i]
+                awake = body.awake
+                if not awake and aw_ and not aw_[-1]:  # still asleep: Box2D has not moved it
+                    p_.append(p_[-1])
+                    a_.append(a_[-1])
+                else:  # awake, fell asleep in this step (after moving in it) or asleep from the start
                     p = body.position
                     p_.append((p.x, p.y))
                     a_.append(body.angle)
+                if awake:
                     v = body.linearVelocity
                     v_.append((v.x, v.y))
                     w_.append(body.angularVelocity)
                     aw_.append(True)
-                elif aw_ and not aw_[-1]:  # still asleep: Box2D has not moved it, its velocity is zero
-                    p_.append(p_[-1])
-                    a_.append(a_[-1])
-                    v_.append(zero)
-                    w_.append(0.0)
-                    aw_.append(False)
-                else:  # fell asleep in this step (after moving in it) or asleep from the start
-                    p = body.position
-                    p_.append((p.x, p.y))
-                    a_.append(body.angle)
+                else:  # Box2D zeroes a sleeping body's velocity
                     v_.append(zero)
                     w_.append(0.0)
                     aw_.append(False)
         b2w.contactListener = None
-        for i, (r0, p_, a_, v_, w_, aw_) in rec.items():
-            if p_:
-                pos[r0:, i] = p_
-                ang[r0:, i] = a_
-                vel[r0:, i] = v_
-                angv[r0:, i] = w_
-                awake[r0:, i] = aw_
-        traj = Trajectory(ids=ids, positions=pos, angles=ang, velocities=vel, angular_velocities=angv)
-        contacts: dict[PairKey, tuple[Interval, ...]] = self.contacts.result(steps)
-        sensors: dict[SensorKey, tuple[Interval, ...]] = self.sensors.result(steps)
-        return RawRun(traj, awake, ContactLog(steps, contacts, sensors))
+        return rec.result(self.log.log(steps))
 
-    @staticmethod
-    def _set_state(body: Any, pos: np.ndarray, ang: np.ndarray, vel: np.ndarray, angv: np.ndarray,
-                   i: int, row: int) -> None:
-        body.transform = ((float(pos[row, i, 0]), float(pos[row, i, 1])), float(ang[row, i]))
-        body.linearVelocity = (float(vel[row, i, 0]), float(vel[row, i, 1]))
-        body.angularVelocity = float(angv[row, i])
+
+def _set_state(body: Any, state: BodyState, wake: bool) -> None:
+    """Place ``body`` on a state; ``wake`` for a body switched to dynamic (not for kinematic replays)."""
+    position, angle, velocity, angular_velocity = state
+    body.transform = (position, angle)
+    body.linearVelocity = velocity
+    body.angularVelocity = angular_velocity
+    if wake:
         body.awake = True
-
-    @staticmethod
-    def _set_kinematic(body: Any, pos: np.ndarray, ang: np.ndarray, i: int, k: int, fps: float) -> None:
-        x0, y0 = float(pos[k, i, 0]), float(pos[k, i, 1])
-        a0 = float(ang[k, i])
-        body.transform = ((x0, y0), a0)
-        body.linearVelocity = ((float(pos[k + 1, i, 0]) - x0) * fps, (float(pos[k + 1, i, 1]) - y0) * fps)
-        body.angularVelocity = (float(ang[k + 1, i]) - a0) * fps

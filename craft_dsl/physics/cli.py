@@ -6,6 +6,8 @@ import argparse
 import sys
 from typing import Any
 
+from .live import ENGINES
+
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     from ..recorded import save_simulation
@@ -18,9 +20,6 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     print(f"wrote {args.out}: scene {sim.meta['scene']} seed {sim.meta['seed']}, {len(sim.events)} events, "
           f"{n_var} variations", file=sys.stderr)
     return 0
-
-
-ENGINE_CHOICES = ("pymunk", "box2d")
 
 
 def _scene_list(text: str | None) -> list[int]:
@@ -52,8 +51,8 @@ def cmd_engines_compare(args: argparse.Namespace) -> int:
     from .compare import compare_engines, format_comparison, stderr_progress
 
     engines = tuple(args.engines.split(","))
-    if len(engines) != 2 or any(e not in ENGINE_CHOICES for e in engines):
-        print(f"error: --engines takes two of {', '.join(ENGINE_CHOICES)}, e.g. pymunk,box2d", file=sys.stderr)
+    if len(engines) != 2 or any(e not in ENGINES for e in engines):
+        print(f"error: --engines takes two of {', '.join(ENGINES)}, e.g. pymunk,box2d", file=sys.stderr)
         return 2
     cmp = compare_engines(_scene_list(args.scenes), range(args.seeds), engines=(engines[0], engines[1]),
                           steps=args.steps, jobs=args.jobs, perturb=args.perturb,
@@ -69,7 +68,7 @@ def add_commands(subparsers: Any) -> None:
     sim.add_argument("--scene", required=True, help="scene id 1-20 or a layout file")
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--steps", type=int, default=600)
-    sim.add_argument("--engine", default="pymunk", choices=ENGINE_CHOICES, help="physics engine")
+    sim.add_argument("--engine", default="pymunk", choices=ENGINES, help="physics engine")
     sim.add_argument("--out", required=True, help="output JSON (original format)")
     sim.add_argument("--no-variations", action="store_true", help="do not run the counterfactuals")
     sim.set_defaults(func=cmd_simulate)
@@ -84,7 +83,7 @@ def add_commands(subparsers: Any) -> None:
     stats.add_argument("--seeds", type=int, default=200, help="seeds 0..N-1 per scene")
     stats.add_argument("--scenes", help="e.g. 1,2,5-7 (default: all 20)")
     stats.add_argument("--steps", type=int, default=600)
-    stats.add_argument("--engine", default="pymunk", choices=ENGINE_CHOICES, help="physics engine")
+    stats.add_argument("--engine", default="pymunk", choices=ENGINES, help="physics engine")
     stats.add_argument("--markdown", action="store_true", help="print a Markdown table")
     stats.set_defaults(func=cmd_scene_stats)
 

@@ -21,10 +21,15 @@ from typing import Any, cast
 
 from ..templates import instantiate, templates
 from ..types import INVALID
-from .stats import SceneStats, scene_stats
+from .stats import SceneStats, scene_stats, text_table
 
 #: Template families, in the templates file's order.
 CATEGORIES = ("descriptive", "counterfactual", "cause", "enable", "prevent")
+
+
+def _share(part: int, whole: int) -> float:
+    """``part / whole``, nan if ``whole`` is 0."""
+    return part / whole if whole else float("nan")
 
 
 def same_answer(a: Any, b: Any) -> bool:
@@ -47,12 +52,12 @@ class TemplateRow:
     @property
     def rate(self) -> float:
         """Agreement rate in [0, 1] (nan without questions)."""
-        return self.agree / self.questions if self.questions else float("nan")
+        return _share(self.agree, self.questions)
 
     @property
     def majority_rate(self) -> float:
         """Share of the most frequent answer on the first engine: agreement by always guessing it."""
-        return self.majority / self.questions if self.questions else float("nan")
+        return _share(self.majority, self.questions)
 
 
 @dataclass(frozen=True)
@@ -64,7 +69,7 @@ class CategoryRow:
 
     @property
     def rate(self) -> float:
-        return self.agree / self.questions if self.questions else float("nan")
+        return _share(self.agree, self.questions)
 
 
 @dataclass(frozen=True)
@@ -203,15 +208,6 @@ def compare_engines(
 # -- formatting --------------------------------------------------------------------------------------
 
 
-def _table(head: list[str], body: list[list[str]], markdown: bool) -> str:
-    if markdown:
-        lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-        lines += ["| " + " | ".join(row) + " |" for row in body]
-        return "\n".join(lines)
-    widths = [max(len(x) for x in col) for col in zip(head, *body)]
-    return "\n".join("  ".join(x.rjust(w) for x, w in zip(row, widths)).rstrip() for row in [head, *body])
-
-
 def _pct(x: float) -> str:
     return "-" if x != x else f"{100 * x:.1f}%"
 
@@ -231,12 +227,12 @@ def format_comparison(cmp: Comparison, markdown: bool = False, sections: Sequenc
         all_rows, paper_rows = cmp.categories(), cmp.categories(paper_only=True)
         body = [[r.category, str(r.templates), str(r.questions), _pct(r.rate), str(p.templates), str(p.questions),
                  _pct(p.rate)] for r, p in zip(all_rows, paper_rows)]
-        parts.append(_table(["category", "templates", "questions", "agreement", "paper templates",
+        parts.append(text_table(["category", "templates", "questions", "agreement", "paper templates",
                              "paper questions", "paper agreement"], body, markdown))
     if "templates" in sections:
         body = [[t.template, t.category, "yes" if t.paper else "no", str(t.questions), _pct(t.rate),
                  _pct(t.majority_rate), str(t.invalid_b)] for t in cmp.templates]
-        parts.append(_table(["template", "category", "paper", "questions", "agreement", "majority answer",
+        parts.append(text_table(["template", "category", "paper", "questions", "agreement", "majority answer",
                              f"INVALID on {b}"], body, markdown))
     if "scenes" in sections:
         body = []
@@ -245,7 +241,7 @@ def format_comparison(cmp: Comparison, markdown: bool = False, sections: Sequenc
                          f"{sa.basket_share:.2f}", f"{sb.basket_share:.2f}",
                          f"{sa.ground_share:.2f}", f"{sb.ground_share:.2f}",
                          f"{sa.events_per_run:.1f}", f"{sb.events_per_run:.1f}"])
-        parts.append(_table(["scene", "runs", "dynamic", f"basket {a}", f"basket {b}", f"ground {a}",
+        parts.append(text_table(["scene", "runs", "dynamic", f"basket {a}", f"basket {b}", f"ground {a}",
                              f"ground {b}", f"events/run {a}", f"events/run {b}"], body, markdown))
     return "\n\n".join(parts)
 

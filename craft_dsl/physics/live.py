@@ -25,19 +25,21 @@ have been activated), so the spliced log equals the base log for that pair.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from ..errors import CounterfactualUnavailable
 from ..simulation import ObjectState, SimObject, Simulation, Trajectory
 from ..world import DEFAULT_STEPS, WorldSpec
-from .engine import ContactLog, PhysicsEngine, RawRun, ReplayPlan, splice
+from .engine import ContactLog, Interval, PhysicsEngine, RawRun, ReplayPlan, splice
 from .events import events_from_log
 
 _INF = math.inf
+_K = TypeVar("_K", bound=tuple[int, ...])
 
 
 #: Engine names accepted by :func:`get_engine` and ``simulate(..., engine=...)``.
@@ -75,14 +77,13 @@ def objects_from_run(world: WorldSpec, raw: RawRun) -> list[SimObject]:
         i = traj.column(spec.uid)
 
         def state(row: int, i: int = i, dynamic: bool = spec.dynamic) -> ObjectState:
+            position = (float(traj.positions[row, i, 0]), float(traj.positions[row, i, 1]))
+            angle = float(traj.angles[row, i])
             if not dynamic:
-                return ObjectState(
-                    position=(float(traj.positions[row, i, 0]), float(traj.positions[row, i, 1])),
-                    angle=float(traj.angles[row, i]),
-                )
+                return ObjectState(position=position, angle=angle)
             return ObjectState(
-                position=(float(traj.positions[row, i, 0]), float(traj.positions[row, i, 1])),
-                angle=float(traj.angles[row, i]),
+                position=position,
+                angle=angle,
                 velocity=(float(traj.velocities[row, i, 0]), float(traj.velocities[row, i, 1])),
                 angular_velocity=float(traj.angular_velocities[row, i]),
                 awake=bool(raw.awake[row, i]),
@@ -212,28 +213,35 @@ def _activate_from_run(run: ContactLog, activation: dict[int, int], dynamic: set
     return changed
 
 
+def _splice_map(
+    base: Mapping[_K, tuple[Interval, ...]],
+    run: Mapping[_K, tuple[Interval, ...]],
+    switch: Callable[[_K], float],
+    steps: int,
+) -> dict[_K, tuple[Interval, ...]]:
+    """Per key: base intervals before frame ``switch(key)``, run intervals from it on (base only if inf)."""
+    out = {}
+    for key in sorted(set(base) | set(run)):
+        at = switch(key)
+        if at == _INF:
+            ivs = base.get(key, ())
+        else:
+            ivs = splice(base.get(key, ()), run.get(key, ()), int(at), steps)
+        if ivs:
+            out[key] = ivs
+    return out
+
+
 def splice_logs(base: ContactLog, run: ContactLog, activation: dict[int, int]) -> ContactLog:
     """Per pair: base intervals before the first activation among its bodies, run intervals after."""
-    steps = base.steps
-    contacts = {}
-    for key in sorted(set(base.contacts) | set(run.contacts)):
-        switch = min(activation.get(key[0], _INF), activation.get(key[2], _INF))
-        if switch == _INF:
-            ivs = base.contacts.get(key, ())
-        else:
-            ivs = splice(base.contacts.get(key, ()), run.contacts.get(key, ()), int(switch), steps)
-        if ivs:
-            contacts[key] = ivs
-    sensors = {}
-    for skey in sorted(set(base.sensors) | set(run.sensors)):
-        switch = activation.get(skey[1], _INF)
-        if switch == _INF:
-            ivs = base.sensors.get(skey, ())
-        else:
-            ivs = splice(base.sensors.get(skey, ()), run.sensors.get(skey, ()), int(switch), steps)
-        if ivs:
-            sensors[skey] = ivs
-    return ContactLog(steps, contacts, sensors)
+
+    def active_from(uid: int) -> float:
+        return activation.get(uid, _INF)
+
+    contacts = _splice_map(base.contacts, run.contacts, lambda k: min(active_from(k[0]), active_from(k[2])),
+                           base.steps)
+    sensors = _splice_map(base.sensors, run.sensors, lambda k: active_from(k[1]), base.steps)
+    return ContactLog(base.steps, contacts, sensors)
 
 
 def clean_counterfactual(

@@ -19,16 +19,14 @@ shapes collide only with dynamically simulated bodies (never with statics, the s
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
 import pymunk
 from pymunk._chipmunk import lib as _lib
 
-from ..simulation import Trajectory
 from ..world import FRICTION, RESTITUTION, RESTITUTION_THRESHOLD, BodySpec, WorldSpec
-from .engine import ContactLog, Interval, PairKey, RawRun, ReplayPlan, SensorKey, pair_key
+from .engine import RawRun, ReplayPlan
+from .recording import BodyState, ContactRecorder, ShapeTag, StateRecorder, SubstepIntervalRecorder
 
 _CAT_STATIC = 0b001
 _CAT_DYNAMIC = 0b010
@@ -38,47 +36,6 @@ _FILTER_DYNAMIC = pymunk.ShapeFilter(categories=_CAT_DYNAMIC, mask=_CAT_STATIC |
 _FILTER_REPLAY = pymunk.ShapeFilter(categories=_CAT_REPLAY, mask=_CAT_DYNAMIC)
 
 _SHAPE_FRICTION = math.sqrt(FRICTION)
-
-
-@dataclass(frozen=True)
-class _ShapeInfo:
-    uid: int
-    part: int
-    sensor: bool
-
-
-class _IntervalRecorder:
-    """Turns begin/separate callbacks at (frame, sub-step) into per-frame touching intervals."""
-
-    def __init__(self) -> None:
-        self.open: dict[Any, list[list[int]]] = {}
-
-    def begin(self, key: Any, frame: int) -> None:
-        ivs = self.open.get(key)
-        if ivs is None:
-            self.open[key] = [[frame, -1]]
-            return
-        last = ivs[-1]
-        if last[1] == -1 or last[1] >= frame:  # still touching in this frame: same contact continues
-            last[1] = -1
-        else:
-            ivs.append([frame, -1])
-
-    def separate(self, key: Any, frame: int, substep: int) -> None:
-        ivs = self.open.get(key)
-        if ivs is None or ivs[-1][1] != -1:
-            return
-        # Separating at the first sub-step means the pair did not touch in this frame at all.
-        ivs[-1][1] = frame + 1 if substep > 0 else frame
-        if ivs[-1][1] <= ivs[-1][0]:
-            ivs.pop()
-            if not ivs:
-                del self.open[key]
-
-    def result(self, steps: int) -> dict[Any, tuple[Interval, ...]]:
-        return {
-            k: tuple((s, steps if e == -1 else e) for s, e in v) for k, v in sorted(self.open.items()) if v
-        }
 
 
 class PymunkEngine:
@@ -110,7 +67,7 @@ class PymunkEngine:
 
     # -- building a space ------------------------------------------------------------------------
 
-    def build_space(self, world: WorldSpec) -> tuple[pymunk.Space, dict[int, pymunk.Body], dict[Any, _ShapeInfo]]:
+    def build_space(self, world: WorldSpec) -> tuple[pymunk.Space, dict[int, pymunk.Body], dict[Any, ShapeTag]]:
         """A pymunk space holding ``world`` (all dynamic bodies dynamic), with no callbacks."""
         space = pymunk.Space()
         space.gravity = world.gravity
@@ -122,13 +79,13 @@ class PymunkEngine:
             space.sleep_time_threshold = self.sleep_time
             space.idle_speed_threshold = self.idle_speed
         bodies: dict[int, pymunk.Body] = {}
-        infos: dict[Any, _ShapeInfo] = {}
+        infos: dict[Any, ShapeTag] = {}
         for spec in world.bodies:
             body, shapes = self._make_body(spec)
             space.add(body, *shapes)
             bodies[spec.uid] = body
             for part, shape in enumerate(shapes):
-                infos[shape] = _ShapeInfo(spec.uid, part, shape.sensor)
+                infos[shape] = ShapeTag(spec.uid, part, shape.sensor)
         return space, bodies, infos
 
     def _make_body(self, spec: BodySpec) -> tuple[pymunk.Body, list[pymunk.Shape]]:
@@ -199,8 +156,7 @@ class _Run:
         self.frame = 0
         self.substep = 0
         self.stepping = False
-        self.contacts = _IntervalRecorder()
-        self.sensors = _IntervalRecorder()
+        self.log = ContactRecorder(SubstepIntervalRecorder)
 
     # Callbacks --------------------------------------------------------------------------------------
 
@@ -209,11 +165,10 @@ class _Run:
             return
         sa, sb = arb.shapes
         ia, ib = self.infos[sa], self.infos[sb]
+        rec, key = self.log.route(*ia, *ib)
+        rec.begin(key, self.frame)
         if ia.sensor or ib.sensor:
-            key_s: SensorKey = (ia.uid, ib.uid) if ia.sensor else (ib.uid, ia.uid)
-            self.sensors.begin(key_s, self.frame)
             return
-        self.contacts.begin(pair_key(ia.uid, ia.part, ib.uid, ib.part), self.frame)
         # Box2D's restitution threshold: bounce only on an approach faster than 1 m/s.
         n = arb.normal
         ba, bb = sa.body, sb.body
@@ -229,102 +184,46 @@ class _Run:
         if not self.stepping or arb.is_removal:
             return
         sa, sb = arb.shapes
-        ia, ib = self.infos[sa], self.infos[sb]
-        if ia.sensor or ib.sensor:
-            key_s: SensorKey = (ia.uid, ib.uid) if ia.sensor else (ib.uid, ia.uid)
-            self.sensors.separate(key_s, self.frame, self.substep)
-            return
-        self.contacts.separate(pair_key(ia.uid, ia.part, ib.uid, ib.part), self.frame, self.substep)
+        rec, key = self.log.route(*self.infos[sa], *self.infos[sb])
+        rec.separate(key, self.frame, self.substep)
 
     # Main loop --------------------------------------------------------------------------------------
 
     def execute(self) -> RawRun:
-        eng, world, steps, replay = self.engine, self.world, self.steps, self.replay
+        eng, world, steps = self.engine, self.world, self.steps
         space, bodies, self.infos = eng.build_space(world)
         space.on_collision(None, None, begin=self._begin, separate=self._separate)
-        ids = tuple(b.uid for b in world.bodies)
-        n = len(ids)
-        pos = np.zeros((steps + 1, n, 2))
-        ang = np.zeros((steps + 1, n))
-        vel = np.zeros((steps + 1, n, 2))
-        angv = np.zeros((steps + 1, n))
-        awake = np.zeros((steps + 1, n), dtype=bool)
-        col = {uid: i for i, uid in enumerate(ids)}
-        dyn = [(col[b.uid], bodies[b.uid]) for b in world.bodies if b.dynamic]
-        for b in world.bodies:
-            i = col[b.uid]
-            pos[0, i] = b.position
-            ang[0, i] = b.angle
-            if b.dynamic:
-                vel[0, i] = b.velocity
-                angv[0, i] = b.angular_velocity
-                awake[0, i] = True
-
-        first = 0
-        activation: dict[int, int] = {}
-        base_cols: dict[int, int] = {}
-        if replay is not None:
-            base = replay.base
-            first = min(replay.first_frame, steps)
-            base_cols = {b.uid: base.column(b.uid) for b in world.bodies if b.dynamic}
-            activation = {uid: a for uid, a in replay.activation.items() if uid in bodies}
-            for uid, bc in base_cols.items():
-                i = col[uid]
-                hi = min(activation.get(uid, steps), steps) + 1  # rows up to the activation row are base
-                pos[:hi, i] = base.positions[:hi, bc]
-                ang[:hi, i] = base.angles[:hi, bc]
-                vel[:hi, i] = base.velocities[:hi, bc]
-                angv[:hi, i] = base.angular_velocities[:hi, bc]
-                awake[:hi, i] = replay.base_awake[:hi, bc]
-            for b in world.bodies:
-                if not b.dynamic:
-                    pos[:, col[b.uid]] = pos[0, col[b.uid]]
-                    ang[:, col[b.uid]] = ang[0, col[b.uid]]
-            replayed = {uid for uid in base_cols if activation.get(uid, steps) > first}
-            for uid in replayed:
-                body = bodies[uid]
-                body.body_type = pymunk.Body.KINEMATIC
-                for shape in body.shapes:
-                    shape.filter = _FILTER_REPLAY
-            for uid in base_cols:
-                if activation.get(uid, steps) == first:
-                    self._set_state(bodies[uid], pos, ang, vel, angv, col[uid], first)
-        else:
-            for b in world.bodies:
-                if not b.dynamic:
-                    pos[:, col[b.uid]] = b.position
-                    ang[:, col[b.uid]] = b.angle
+        rec: StateRecorder[pymunk.Body] = StateRecorder(world, steps, self.replay)
+        rec.attach(bodies)
+        first = rec.first
+        for _, body in rec.kinematic:
+            body.body_type = pymunk.Body.KINEMATIC
+            for shape in body.shapes:
+                shape.filter = _FILTER_REPLAY
+        if self.replay is not None:
+            for i, body in rec.active:
+                _set_state(body, rec.state(i, first))
 
         fps = float(world.steps_per_second)
-        active = [(i, body) for i, body in dyn if replay is None or activation.get(ids[i], steps) <= first]
-        pending = sorted(
-            (a, uid) for uid, a in activation.items() if first < a < steps
-        )
-        kin = [(col[uid], bodies[uid]) for uid in base_cols if activation.get(uid, steps) > first]
-        # Per active column: first recorded row and the recorded values (numpy-filled at the end).
-        rec: dict[int, tuple[int, list[Any], list[float], list[Any], list[float], list[bool]]] = {
-            i: (first + 1, [], [], [], [], []) for i, _ in active
-        }
+        active, rows = rec.active, rec.rows
         zero = (0.0, 0.0)
         get_pos, get_angle, get_vel = _lib.cpBodyGetPosition, _lib.cpBodyGetAngle, _lib.cpBodyGetVelocity
         get_angvel, is_sleeping = _lib.cpBodyGetAngularVelocity, _lib.cpBodyIsSleeping
+        vel = rec.vel
         vmax2 = max((float(vel[first, i, 0] ** 2 + vel[first, i, 1] ** 2) for i, _ in active), default=0.0)
         step = space.step
         self.stepping = True
         for k in range(first, steps):
             self.frame = k
-            while pending and pending[0][0] == k:
-                _, uid = pending.pop(0)
+            for uid in rec.due(k):
                 body = bodies[uid]
                 body.body_type = pymunk.Body.DYNAMIC
                 for shape in body.shapes:
                     shape.filter = _FILTER_DYNAMIC
-                self._set_state(body, pos, ang, vel, angv, col[uid], k)
-                kin = [(i, b) for i, b in kin if b is not body]
-                active.append((col[uid], body))
-                rec[col[uid]] = (k + 1, [], [], [], [], [])
-            for i, body in kin:
-                self._set_kinematic(body, pos, ang, i, k, fps)
+                _set_state(body, rec.state(rec.col[uid], k))
+                rec.activate(uid, body, k)
+            for i, body in rec.kinematic:
+                _set_state(body, rec.kinematic_state(i, k, fps))
             n_sub = eng.substeps_for(vmax2, fps)
             dt = 1.0 / fps / n_sub
             for j in range(n_sub):
@@ -334,7 +233,7 @@ class _Run:
             for i, body in active:
                 # Direct Chipmunk getters: the recording is the hot loop of a run.
                 h = body._body
-                _, p_, a_, v_, w_, aw_ = rec[i]
+                _, p_, a_, v_, w_, aw_ = rows[i]
                 p = get_pos(h)
                 p_.append((p.x, p.y))
                 a_.append(get_angle(h))
@@ -348,33 +247,13 @@ class _Run:
                     vmax2 = max(vmax2, v.x * v.x + v.y * v.y)
                     w_.append(get_angvel(h))
                     aw_.append(True)
-        for i, (r0, p_, a_, v_, w_, aw_) in rec.items():
-            if p_:
-                pos[r0:, i] = p_
-                ang[r0:, i] = a_
-                vel[r0:, i] = v_
-                angv[r0:, i] = w_
-                awake[r0:, i] = aw_
         self.stepping = False
-        traj = Trajectory(ids=ids, positions=pos, angles=ang, velocities=vel, angular_velocities=angv)
-        contacts: dict[PairKey, tuple[Interval, ...]] = self.contacts.result(steps)
-        sensors: dict[SensorKey, tuple[Interval, ...]] = self.sensors.result(steps)
-        return RawRun(traj, awake, ContactLog(steps, contacts, sensors))
+        return rec.result(self.log.log(steps))
 
-    @staticmethod
-    def _set_state(body: pymunk.Body, pos: np.ndarray, ang: np.ndarray, vel: np.ndarray, angv: np.ndarray,
-                   i: int, row: int) -> None:
-        body.position = (float(pos[row, i, 0]), float(pos[row, i, 1]))
-        body.angle = float(ang[row, i])
-        body.velocity = (float(vel[row, i, 0]), float(vel[row, i, 1]))
-        body.angular_velocity = float(angv[row, i])
 
-    @staticmethod
-    def _set_kinematic(body: pymunk.Body, pos: np.ndarray, ang: np.ndarray, i: int, k: int, fps: float) -> None:
-        x0, y0 = float(pos[k, i, 0]), float(pos[k, i, 1])
-        x1, y1 = float(pos[k + 1, i, 0]), float(pos[k + 1, i, 1])
-        a0, a1 = float(ang[k, i]), float(ang[k + 1, i])
-        body.position = (x0, y0)
-        body.angle = a0
-        body.velocity = ((x1 - x0) * fps, (y1 - y0) * fps)
-        body.angular_velocity = (a1 - a0) * fps
+def _set_state(body: pymunk.Body, state: BodyState) -> None:
+    position, angle, velocity, angular_velocity = state
+    body.position = position
+    body.angle = angle
+    body.velocity = velocity
+    body.angular_velocity = angular_velocity

@@ -55,6 +55,11 @@ def format_table(rows: Iterable[SceneStats], markdown: bool = False) -> str:
     body = [[str(r.scene), str(r.runs), f"{r.dynamic_objects:.2f}", f"{r.basket_share:.2f}",
              f"{r.ground_share:.2f}", f"{r.events_per_run:.1f}", f"{r.sims_per_second:.1f}",
              "DEGENERATE: no basket entry" if r.degenerate else ""] for r in rows]
+    return text_table(head, body, markdown)
+
+
+def text_table(head: list[str], body: list[list[str]], markdown: bool = False) -> str:
+    """A table as Markdown or as right-aligned plain-text columns."""
     if markdown:
         lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         lines += ["| " + " | ".join(row) + " |" for row in body]
