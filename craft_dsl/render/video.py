@@ -1,0 +1,119 @@
+"""Writing frames to files: MP4 (H.264) and GIF through imageio-ffmpeg, PNG with zlib.
+
+Every write is atomic: the file is encoded under a temporary name in the target's folder and renamed
+into place only when complete, so an interrupted or failed run leaves no half-written output.
+
+imageio-ffmpeg was chosen over PyAV after measuring both on the same 600 frames (docs/rendering.md):
+equal H.264 speed, and its bundled ffmpeg makes well-paletted GIFs (palettegen/paletteuse) in one pass.
+"""
+
+from __future__ import annotations
+
+import os
+import struct
+import tempfile
+import zlib
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from ..simulation import Simulation
+from .raster import DEFAULT_SIZE, SIM_FPS, RenderError, frame, frame_count, iter_frames
+
+#: File extensions -> container/codec settings.
+VIDEO_FORMATS = (".mp4", ".gif")
+#: H.264 quality (constant rate factor; 18 is visually lossless for these flat images).
+MP4_CRF = 18
+_GIF_FILTER = "split[a][b];[a]palettegen=max_colors=64:stats_mode=full[p];[b][p]paletteuse=dither=none"
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """A temporary path beside ``path`` (same extension), renamed onto ``path`` on success."""
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".tmp{target.suffix}", dir=target.parent)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    try:
+        yield tmp
+        os.replace(tmp, target)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def encode_png(image: np.ndarray) -> bytes:
+    """PNG bytes of an RGB uint8 image [H, W, 3] (8-bit truecolour, no filtering)."""
+    img = np.ascontiguousarray(image)
+    if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] != 3:
+        raise RenderError(f"a PNG needs a uint8 [H, W, 3] image, got {img.dtype} {img.shape}")
+    h, w, _ = img.shape
+    raw = np.concatenate([np.zeros((h, 1), np.uint8), img.reshape(h, w * 3)], axis=1).tobytes()
+
+    def chunk(tag: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data) & 0xFFFFFFFF)
+
+    header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b"")
+
+
+def write_png(sim: Simulation, path: str | os.PathLike[str], step: int, size: int = DEFAULT_SIZE) -> Path:
+    """Write the frame of the state after ``step`` steps as a PNG (atomically)."""
+    data = encode_png(frame(sim, step, size))
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data)
+    return Path(path)
+
+
+def _video_format(path: Path) -> str:
+    ext = path.suffix.lower()
+    if ext not in VIDEO_FORMATS:
+        raise RenderError(f"{path}: unknown video format {ext or '(none)'!r}; allowed: {', '.join(VIDEO_FORMATS)}")
+    return ext
+
+
+def write_frames(frames: Iterable[np.ndarray], path: str | os.PathLike[str], fps: float = SIM_FPS,
+                 size: int = DEFAULT_SIZE, progress: Callable[[int], None] | None = None) -> Path:
+    """Encode RGB uint8 frames [size, size, 3] to ``path`` (.mp4: H.264 yuv420p; .gif: 64-colour palette)."""
+    import imageio_ffmpeg
+
+    target = Path(path)
+    ext = _video_format(target)
+    if ext == ".mp4":
+        options = dict(codec="libx264", pix_fmt_out="yuv420p",
+                       output_params=["-crf", str(MP4_CRF), "-movflags", "+faststart"])
+    else:
+        options = dict(codec="gif", pix_fmt_out="pal8", output_params=["-filter_complex", _GIF_FILTER])
+    with atomic_path(target) as tmp:
+        writer = imageio_ffmpeg.write_frames(str(tmp), (size, size), fps=fps, macro_block_size=1,
+                                             ffmpeg_log_level="error", **options)
+        writer.send(None)
+        count = 0
+        try:
+            for img in frames:
+                if img.shape != (size, size, 3):
+                    raise RenderError(f"frame {count} has shape {img.shape}; expected ({size}, {size}, 3)")
+                writer.send(np.ascontiguousarray(img, dtype=np.uint8))
+                count += 1
+                if progress is not None:
+                    progress(1)
+        finally:
+            writer.close()
+        if count == 0:
+            raise RenderError(f"{target}: no frames to write (the simulation has no steps at this frame rate)")
+    return target
+
+
+def write_video(sim: Simulation, path: str | os.PathLike[str], fps: float = SIM_FPS, size: int = DEFAULT_SIZE,
+                progress: bool = False) -> Path:
+    """Render ``sim`` and write it as a video (format from the extension), with an optional progress bar."""
+    _video_format(Path(path))
+    total = frame_count(sim, fps)
+    if not progress:
+        return write_frames(iter_frames(sim, fps, size), path, fps, size)
+    from tqdm import tqdm
+
+    with tqdm(total=total, unit="frame", desc=Path(path).name, leave=False) as bar:
+        return write_frames(iter_frames(sim, fps, size), path, fps, size, progress=bar.update)
