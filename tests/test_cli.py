@@ -119,3 +119,11 @@ def test_run_needs_exactly_one_simulation(capsys: pytest.CaptureFixture[str]) ->
     assert code == 2 and "--sim FILE" in err and "--scene N" in err
     code, _, err = run_cli(capsys, "run", FALL, "--sim", E1, "--scene", "3")
     assert code == 2 and "not both" in err
+
+
+def test_closed_pipe_is_quiet() -> None:
+    exe = shutil.which("craft-dsl")
+    cmd = " ".join([exe] if exe else [sys.executable, "-m", "craft_dsl.cli"])
+    res = subprocess.run(f"{cmd} modules | head -1", shell=True, capture_output=True, text=True, check=False)
+    assert res.stdout.startswith("SceneAtStart")
+    assert "Traceback" not in res.stderr
