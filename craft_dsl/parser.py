@@ -16,12 +16,6 @@ from .syntax import Binding, Call, Expr, Literal, Ref, Tree
 _QUOTES = '"\u201c\u201d'
 
 
-@lru_cache(maxsize=1)
-def _parser() -> Lark:
-    grammar = (data_dir("grammar") / "craft.lark").read_text(encoding="utf-8")
-    return Lark(grammar, parser="lalr", propagate_positions=True, maybe_placeholders=False)
-
-
 def _pos(tok: Token | LarkTree) -> tuple[int, int] | None:
     if isinstance(tok, Token):
         return (tok.line or 0, tok.column or 0)
@@ -54,6 +48,13 @@ class _ToSyntax(Transformer):
     def ref(self, t: LarkTree) -> Ref:
         (tok,) = t.children
         return Ref(str(tok), _pos(tok))
+
+
+@lru_cache(maxsize=1)
+def _parser() -> Lark:
+    grammar = (data_dir("grammar") / "craft.lark").read_text(encoding="utf-8")
+    # The transformer runs inside the LALR parser: no intermediate parse tree is built.
+    return Lark(grammar, parser="lalr", maybe_placeholders=False, transformer=_ToSyntax())
 
 
 _EXPECTED_NAMES = {
@@ -100,9 +101,8 @@ def parse_tree(text: str) -> Tree:
         raise ParseError(msg, tok.line, tok.column) from None
     except UnexpectedEOF as err:
         raise ParseError(f"the program ends too early; expected {_expected(err)}", *_end_position(text)) from None
-    result = _ToSyntax().transform(tree)
-    assert isinstance(result, Tree)
-    return result
+    assert isinstance(tree, Tree)
+    return tree
 
 
 def _end_position(text: str) -> tuple[int, int]:
