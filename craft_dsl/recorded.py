@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -20,6 +19,7 @@ from typing import Any
 import networkx as nx
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from .atomic import write_json_atomic
 from .errors import CounterfactualUnavailable, SimulationFileError
 from .simulation import Event, ObjectState, SimObject, Simulation
 from .vocabulary import END, ORIGINAL_EVENT_TYPE, START, canonical_event_type
@@ -323,21 +323,6 @@ def simulation_dict(sim: Simulation, variations: bool = True) -> dict[str, Any]:
     outputs = {str(o.id): bare_output(sim.counterfactual(o.id)) for o in sim.objects if o.dynamic}
     return {"original_video_output": bare_output(sim), "variations_outputs": outputs,
             "enables": [], "prevents": []}
-
-
-def write_json_atomic(data: Any, path: str | os.PathLike[str], indent: int | None = 2) -> None:
-    """Write JSON to a temporary file beside ``path`` and rename it: no half-written file on failure."""
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump(data, fh, indent=indent)
-            fh.write("\n")
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def save_simulation(sim: Simulation, path: str | os.PathLike[str], variations: bool = True) -> None:

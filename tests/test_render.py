@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import os
+import stat
 from pathlib import Path
 
 import imageio_ffmpeg
@@ -163,6 +165,16 @@ def test_png_is_lossless(tmp_path: Path) -> None:
     path = write_png(sim, tmp_path / "f.png", 7)
     size, decoded = _decode(path)
     assert size == (256, 256) and np.array_equal(decoded[0], frame(sim, 7))
+
+
+def test_written_files_get_the_usual_permissions(tmp_path: Path) -> None:
+    sim = synthetic_simulation(steps=4)
+    old = os.umask(0o022)
+    try:
+        path = write_png(sim, tmp_path / "f.png", 1)
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o644
 
 
 def test_failed_write_leaves_nothing(tmp_path: Path) -> None:

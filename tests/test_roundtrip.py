@@ -60,3 +60,15 @@ def test_bare_export_has_no_counterfactuals(tmp_path: Path) -> None:
     program = parse("ExistList(GetCounterfactEventsList(FilterDynamic(SceneAtStart())))")
     with pytest.raises(CounterfactualUnavailable, match="without variations"):
         program.run(loaded)
+
+
+def test_saved_file_has_the_usual_permissions(tmp_path: Path) -> None:
+    import os
+    import stat
+
+    path = tmp_path / "sim.json"
+    save_simulation(simulate(3, seed=0, steps=30), path, variations=False)
+    umask = os.umask(0)
+    os.umask(umask)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~umask
+    assert [p.name for p in tmp_path.iterdir()] == ["sim.json"]

@@ -11,14 +11,13 @@ from __future__ import annotations
 
 import os
 import struct
-import tempfile
 import zlib
-from collections.abc import Callable, Iterable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from ..simulation import Simulation
 from .raster import DEFAULT_SIZE, SIM_FPS, RenderError, frame, frame_count, iter_frames
 
@@ -27,21 +26,6 @@ VIDEO_FORMATS = (".mp4", ".gif")
 #: H.264 quality (constant rate factor; 18 is visually lossless for these flat images).
 MP4_CRF = 18
 _GIF_FILTER = "split[a][b];[a]palettegen=max_colors=64:stats_mode=full[p];[b][p]paletteuse=dither=none"
-
-
-@contextmanager
-def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
-    """A temporary path beside ``path`` (same extension), renamed onto ``path`` on success."""
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=f".tmp{target.suffix}", dir=target.parent)
-    os.close(fd)
-    tmp = Path(tmp_name)
-    try:
-        yield tmp
-        os.replace(tmp, target)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def encode_png(image: np.ndarray) -> bytes:
