@@ -28,8 +28,12 @@ the step, so a contact that persists stays one contact) and given its exact reco
 
 from __future__ import annotations
 
+import operator
 import warnings
+from collections.abc import Hashable
 from typing import Any
+
+import numpy as np
 
 with warnings.catch_warnings():  # SWIG's builtin types trigger import-time DeprecationWarnings on 3.12+
     warnings.simplefilter("ignore", DeprecationWarning)
@@ -46,15 +50,34 @@ SENSOR_CATEGORY = 0x0042
 class _Listener(Box2D.b2ContactListener):
     """Forwards Box2D's begin/end callbacks to a recording run."""
 
+    # Box2D calls PreSolve / PostSolve for every touching contact in every step. The inherited ones are SWIG
+    # upcalls to Box2D's empty defaults (a costly round trip that doubled the stepping time); a C builtin that
+    # takes the two arguments and does nothing is several times cheaper, with the same (no) effect.
+    PreSolve = staticmethod(operator.is_)
+    PostSolve = staticmethod(operator.is_)
+
     def __init__(self, run: _Run) -> None:
         super().__init__()
         self.run = run
 
     def BeginContact(self, contact: Any) -> None:  # noqa: N802 - Box2D's callback name
-        self.run.contact_changed(contact, True)
+        run = self.run
+        rec, key = run.route(contact)
+        rec.begin(key, run.frame)
 
     def EndContact(self, contact: Any) -> None:  # noqa: N802 - Box2D's callback name
-        self.run.contact_changed(contact, False)
+        run = self.run
+        rec, key = run.route(contact)
+        rec.end(key, run.frame)
+
+
+# The builtins behind contact.fixtureA / .fixtureB / .childIndexA / .childIndexB and fixture.userData, called
+# directly in the contact callbacks (the same values without pybox2d's property layer).
+_fixture_a = Box2D.b2Contact._b2Contact__GetFixtureA
+_fixture_b = Box2D.b2Contact._b2Contact__GetFixtureB
+_child_a = Box2D.b2Contact._b2Contact__GetChildIndexA
+_child_b = Box2D.b2Contact._b2Contact__GetChildIndexB
+_user_data = Box2D.b2Fixture._b2Fixture__GetUserData
 
 
 def _chains(segments: tuple[Segment, ...]) -> list[list[tuple[float, float]]]:
@@ -153,14 +176,11 @@ class _Run:
         self.frame = 0
         self.log = ContactRecorder(FrameIntervalRecorder)
 
-    def contact_changed(self, contact: Any, begin: bool) -> None:
-        ua, pa, sa = contact.fixtureA.userData
-        ub, pb, sb = contact.fixtureB.userData
-        rec, key = self.log.route(ua, pa + contact.childIndexA, sa, ub, pb + contact.childIndexB, sb)
-        if begin:
-            rec.begin(key, self.frame)
-        else:
-            rec.end(key, self.frame)
+    def route(self, contact: Any) -> tuple[FrameIntervalRecorder, Hashable]:
+        """The recorder and key of a Box2D contact (its fixtures' tags plus the chain children)."""
+        ua, pa, sa = _user_data(_fixture_a(contact))
+        ub, pb, sb = _user_data(_fixture_b(contact))
+        return self.log.route(ua, pa + _child_a(contact), sa, ub, pb + _child_b(contact), sb)
 
     def execute(self) -> RawRun:
         eng, world, steps = self.engine, self.world, self.steps
@@ -176,44 +196,80 @@ class _Run:
 
         fps = float(world.steps_per_second)
         dt = 1.0 / fps
-        active, rows = rec.active, rec.rows
-        zero = (0.0, 0.0)
+        # Rows of simulated bodies: per body one flat list of (x, y, angle, vx, vy, w, awake) per frame, read
+        # through Box2D's own position / velocity vectors (SWIG references into the body, valid for its life),
+        # converted to arrays once at the end (rec.rows stay empty, so rec.result keeps these rows).
+        tracks: list[_Track] = [_Track(i, first + 1, body) for i, body in rec.active]
+        # Replayed bodies: the setters behind body.transform / .linearVelocity / .angularVelocity, and their
+        # base rows as Python floats (the same values and arithmetic as rec.kinematic_state).
+        replays: dict[int, tuple[Any, Any, Any, list[float], list[float], list[float]]] = {}
+        for i, body in rec.kinematic:
+            replays[i] = (body._b2Body__SetTransform, body._b2Body__SetLinearVelocity,
+                          body._b2Body__SetAngularVelocity,
+                          rec.pos[:, i, 0].tolist(), rec.pos[:, i, 1].tolist(), rec.ang[:, i].tolist())
         step, vi, pi = b2w.Step, eng.velocity_iterations, eng.position_iterations
         find_new_contacts = b2w.contactManager.FindNewContacts
+        pending = rec.pending
+        next_due = pending[0][0] if pending else -1
         for k in range(first, steps):
             self.frame = k
-            due = rec.due(k)
-            if due:
-                for uid in due:
+            if k == next_due:
+                for uid in rec.due(k):
                     body = bodies[uid]
                     body.type = Box2D.b2_dynamicBody  # drops its contacts (EndContact stamped k)
-                    _set_state(body, rec.state(rec.col[uid], k), wake=True)
+                    i = rec.col[uid]
+                    _set_state(body, rec.state(i, k), wake=True)
                     rec.activate(uid, body, k)
+                    tracks.append(_Track(i, k + 1, body))
                 find_new_contacts()  # so this step's Collide sees them again (and continues the contacts)
-            for i, body in rec.kinematic:
-                _set_state(body, rec.kinematic_state(i, k, fps), wake=False)
+                next_due = pending[0][0] if pending else -1
+            for i, _ in rec.kinematic:  # on its row, at the mean velocity that reaches the next one
+                set_transform, set_velocity, set_angular_velocity, xs, ys, angs = replays[i]
+                x0, y0, a0 = xs[k], ys[k], angs[k]
+                set_transform((x0, y0), a0)
+                set_velocity(((xs[k + 1] - x0) * fps, (ys[k + 1] - y0) * fps))
+                set_angular_velocity((angs[k + 1] - a0) * fps)
             step(dt, vi, pi)
-            for i, body in active:
-                _, p_, a_, v_, w_, aw_ = rows[i]
-                awake = body.awake
-                if not awake and aw_ and not aw_[-1]:  # still asleep: Box2D has not moved it
-                    p_.append(p_[-1])
-                    a_.append(a_[-1])
-                else:  # awake, fell asleep in this step (after moving in it) or asleep from the start
-                    p = body.position
-                    p_.append((p.x, p.y))
-                    a_.append(body.angle)
-                if awake:
-                    v = body.linearVelocity
-                    v_.append((v.x, v.y))
-                    w_.append(body.angularVelocity)
-                    aw_.append(True)
-                else:  # Box2D zeroes a sleeping body's velocity
-                    v_.append(zero)
-                    w_.append(0.0)
-                    aw_.append(False)
+            for t in tracks:
+                if t.awake():
+                    p, v = t.p, t.v
+                    t.buf += (p.x, p.y, t.angle(), v.x, v.y, t.angular_velocity(), 1.0)
+                    t.asleep = None
+                elif t.asleep is not None:  # still asleep: Box2D has not moved it
+                    t.buf += t.asleep
+                else:  # fell asleep in this step (after moving in it) or asleep from the start
+                    p = t.p
+                    row = (p.x, p.y, t.angle(), 0.0, 0.0, 0.0, 0.0)  # Box2D zeroes a sleeping body's velocity
+                    t.buf += row
+                    t.asleep = row
         b2w.contactListener = None
+        for t in tracks:
+            if t.buf:
+                a = np.fromiter(t.buf, dtype=np.float64, count=len(t.buf)).reshape(-1, 7)
+                i, r0 = t.col, t.row
+                rec.pos[r0:, i] = a[:, 0:2]
+                rec.ang[r0:, i] = a[:, 2]
+                rec.vel[r0:, i] = a[:, 3:5]
+                rec.angv[r0:, i] = a[:, 5]
+                rec.awake[r0:, i] = a[:, 6] != 0.0
         return rec.result(self.log.log(steps))
+
+
+class _Track:
+    """The recorded rows of one simulated body from row ``row`` on, and its cached Box2D accessors."""
+
+    __slots__ = ("col", "row", "awake", "p", "v", "angle", "angular_velocity", "buf", "asleep")
+
+    def __init__(self, col: int, row: int, body: Any) -> None:
+        self.col = col
+        self.row = row
+        self.awake = body._b2Body__IsAwake  # the bound getters behind body.awake / .angle / .angularVelocity
+        self.p = body.position  # references to the body's position and velocity (not copies)
+        self.v = body.linearVelocity
+        self.angle = body._b2Body__GetAngle
+        self.angular_velocity = body._b2Body__GetAngularVelocity
+        self.buf: list[float] = []
+        self.asleep: tuple[float, ...] | None = None  # the last row if it was asleep
 
 
 def _set_state(body: Any, state: BodyState, wake: bool) -> None:
