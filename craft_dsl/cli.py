@@ -151,7 +151,8 @@ def build_parser() -> argparse.ArgumentParser:
     mods.add_argument("--markdown", action="store_true", help="print a Markdown table")
     mods.set_defaults(func=cmd_modules)
 
-    for name in ("craft_dsl.demo", "craft_dsl.physics.cli", "craft_dsl.render.cli", "craft_dsl.verify_cli"):
+    for name in ("craft_dsl.demo", "craft_dsl.physics.cli", "craft_dsl.render.cli", "craft_dsl.verify_cli",
+                 "craft_dsl.dataset.cli"):
         try:
             module = importlib.import_module(name)
         except ImportError as err:
