@@ -1,0 +1,103 @@
+"""Command ``craft-dsl generate``: generate a CRAFT-format dataset (see docs/dataset.md).
+
+Exit codes: 0 done; 2 bad configuration or failed instances (raised as :class:`CraftError`; re-running the same
+command resumes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any
+
+from ..errors import CraftError
+
+
+def _int_list(text: str) -> tuple[int, ...]:
+    """``"1,2,5-7"`` -> (1, 2, 5, 6, 7)."""
+    out: list[int] = []
+    for part in text.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        lo, sep, hi = part.partition("-")
+        try:
+            out.extend(range(int(lo), int(hi) + 1) if sep else [int(lo)])
+        except ValueError:
+            raise CraftError(f"--scenes {text!r}: expected scene ids like 1,2,5-7") from None
+    return tuple(out)
+
+
+def cmd_generate(args: argparse.Namespace) -> int:
+    from .pipeline import GenerationConfig, generate_dataset
+
+    fields: dict[str, Any] = {"size": args.size, "seed": args.seed, "steps": args.steps,
+                              "perturbations": args.perturbations, "amount": args.amount,
+                              "workers": args.workers, "videos": args.videos, "engine": args.engine}
+    if args.scenes is not None:
+        fields["scenes"] = _int_list(args.scenes)
+    if args.templates is not None:
+        fields["templates"] = tuple(t.strip() for t in args.templates.split(",") if t.strip())
+    config = GenerationConfig.make(**fields)
+
+    bar: Any = None
+    show = not args.quiet and sys.stderr.isatty()
+
+    def on_total(pending: int, total: int) -> None:
+        nonlocal bar
+        if pending < total:
+            print(f"resuming: {total - pending} of {total} videos already done", file=sys.stderr)
+        if show and pending:
+            from tqdm import tqdm
+
+            bar = tqdm(total=pending, unit="video", file=sys.stderr)
+
+    start = time.perf_counter()
+    try:
+        report = generate_dataset(config, args.out, progress=lambda n: bar.update(n) if bar else None,
+                                  on_total=on_total)
+    finally:
+        if bar is not None:
+            bar.close()
+    elapsed = time.perf_counter() - start
+    if not args.quiet:
+        q = report["questions"]
+        v = report["videos"]
+        computed = v["total"] - report["resumed"]
+        rate = f", {60 * computed / elapsed:.1f} videos/min" if computed and elapsed > 0 else ""
+        print(f"generated {args.out}: {v['total']} videos ({v['with_questions']} with questions), "
+              f"{q['final']} questions in {elapsed:.1f} s{rate}")
+        pp = sum(q["dropped_by_post_process"].values())
+        bal = sum(q["dropped_by_balancing"].values())
+        print(f"  questions: {q['generated']} generated, -{q['dropped_by_perturbation']} perturbation filter, "
+              f"-{pp} post-process, -{bal} balancing = {q['final']}")
+        if q["final"] == 0 and q["after_post_process"] > 0:
+            print("  warning: balancing removed every question: it purges (scene, template) groups with a single "
+                  "answer, so each scene needs several videos (e.g. --size 40 --scenes 1-4)", file=sys.stderr)
+        for name in ("hard", "random"):
+            s = report["splits"][name]
+            print(f"  split {name}: train {s['train']}, validation {s['validation']}, test {s['test']}")
+        print(f"  check it: craft-dsl verify --dataset {args.out}/dataset.json "
+              f"--annotations {args.out}/annotations.json")
+    return 0
+
+
+def add_commands(sub: Any) -> None:
+    gen = sub.add_parser("generate", help="generate a CRAFT-format dataset (simulate, ask, filter, balance, split)",
+                         description="Generate a CRAFT-format dataset into --out (docs/dataset.md). Re-running the "
+                                     "same command in the same folder resumes an interrupted run.")
+    gen.add_argument("--size", type=int, required=True, help="number of videos")
+    gen.add_argument("--seed", type=int, default=0, help="the seed of every random draw (default 0)")
+    gen.add_argument("--out", required=True, help="output folder")
+    gen.add_argument("--scenes", help="scene ids, e.g. 1,2 or 1-20 (default 1-20)")
+    gen.add_argument("--workers", type=int, default=1, help="worker processes (default 1); output is identical")
+    gen.add_argument("--perturbations", type=int, default=3,
+                     help="perturbed re-simulations per video for the robustness filter (default 3; 0 = none)")
+    gen.add_argument("--amount", type=float, default=0.02, help="perturbation noise amount (default 0.02)")
+    gen.add_argument("--steps", type=int, default=600, help="simulation steps per video (default 600 = 10 s)")
+    gen.add_argument("--videos", action="store_true", help="also render an MP4 per video (slower)")
+    gen.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"), help="physics engine")
+    gen.add_argument("--templates", help="comma-separated template ids (default: all 67)")
+    gen.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
+    gen.set_defaults(func=cmd_generate)
