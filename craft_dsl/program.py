@@ -27,6 +27,7 @@ class Program:
         self.type: DslType = checked.type
         self.binding_types = checked.binding_types
         self._plan = Plan(self.tree, checked.call_types)
+        self._nodes: tuple[tuple[dict[str, Any], str], ...] | None = None
 
     # -- construction -------------------------------------------------------------------------------
 
@@ -50,17 +51,18 @@ class Program:
 
         With ``outputs=sim``, every node carries the ``_output`` the original engine would cache.
         """
-        from .nodes import nodes_from_tree
+        if self._nodes is None:  # the node list does not depend on the simulation: build it once
+            from .nodes import nodes_from_tree
 
-        nodes = nodes_from_tree(self.tree)
-        if outputs is not None:
-            values = {e.expression: e.value for e in self.trace(outputs)}
-            for node in nodes:
-                node["_output"] = to_json(values.get(node.pop("_text"), INVALID), original=True)
-        else:
-            for node in nodes:
-                node.pop("_text")
-        return nodes
+            self._nodes = tuple((node, node.pop("_text")) for node in nodes_from_tree(self.tree))
+        values = {e.expression: e.value for e in self.trace(outputs)} if outputs is not None else None
+        out = []
+        for node, text in self._nodes:
+            copy = {**node, "inputs": list(node["inputs"]), "value_inputs": list(node["value_inputs"])}
+            if values is not None:
+                copy["_output"] = to_json(values.get(text, INVALID), original=True)
+            out.append(copy)
+        return out
 
     # -- evaluation -----------------------------------------------------------------------------------
 

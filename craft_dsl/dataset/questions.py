@@ -52,7 +52,6 @@ from typing import Any, Protocol
 import numpy as np
 
 from ..errors import CounterfactualUnavailable
-from ..nodes import nodes_from_tree
 from ..program import Program, to_json
 from ..simulation import Simulation
 from ..templates import Template, paraphrases, templates
@@ -108,24 +107,9 @@ def _compiled(template_id: str, end: int, params: tuple[tuple[str, str], ...]) -
 
 
 @lru_cache(maxsize=8192)
-def _node_skeleton(program: Program) -> tuple[tuple[dict[str, Any], str], ...]:
-    """The scene-independent part of ``program.to_nodes()``: each node with its expression text."""
-    out = []
-    for node in nodes_from_tree(program.tree):
-        text = node.pop("_text")
-        out.append((node, text))
-    return tuple(out)
-
-
 def program_nodes(program: Program, sim: Simulation) -> list[dict[str, Any]]:
-    """Exactly ``program.to_nodes(outputs=sim)`` (the tests check it), with the node list built once per
-    program rather than once per video: only the ``_output`` values are computed on ``sim``."""
-    values = {e.expression: e.value for e in program.trace(sim)}
-    return [
-        {**node, "value_inputs": list(node["value_inputs"]), "inputs": list(node["inputs"]),
-         "_output": to_json(values.get(text, INVALID), original=True)}
-        for node, text in _node_skeleton(program)
-    ]
+    """The record's ``program``: ``program.to_nodes(outputs=sim)`` (the node list itself is cached per program)."""
+    return program.to_nodes(outputs=sim)
 
 
 class _Search:
