@@ -1,0 +1,185 @@
+"""Prediction scoring: accuracy per paper column, sub-category, question type and template."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..errors import CraftError
+from ..templates import DROPPED, templates
+from .answers import answers_agree
+from .categories import CATEGORIES, FAMILIES, QUESTION_TYPES, category_of
+from .formats import PathLike, Question, parse_predictions, parse_questions, read_predictions, read_questions
+from .paper import PAPER_HUMANS, PAPER_RESULTS
+
+
+@dataclass
+class Score:
+    """Accuracy of one group: ``correct`` of ``total`` (``missing`` of them had no prediction)."""
+
+    total: int = 0
+    correct: int = 0
+    missing: int = 0
+
+    @property
+    def accuracy(self) -> float | None:
+        """Percentage correct, or None for an empty group."""
+        return 100.0 * self.correct / self.total if self.total else None
+
+    def to_json(self) -> dict[str, Any]:
+        return {"total": self.total, "correct": self.correct, "missing": self.missing, "accuracy": self.accuracy}
+
+
+@dataclass
+class ScoreReport:
+    """Result of :func:`score`. ``columns`` holds the paper's C, CF, D and All."""
+
+    columns: dict[str, Score] = field(default_factory=lambda: {k: Score() for k in (*FAMILIES, "All")})
+    per_category: dict[str, Score] = field(default_factory=dict)
+    per_type: dict[str, Score] = field(default_factory=dict)
+    per_template: dict[str, Score] = field(default_factory=dict)
+    predicted: int = 0
+    unknown_predictions: list[tuple[int, int]] = field(default_factory=list)
+    outside_split: int = 0
+    split_not_in_questions: int = 0
+    dropped_templates: int = 0
+
+    @property
+    def total(self) -> int:
+        return self.columns["All"].total
+
+    @property
+    def missing(self) -> int:
+        return self.columns["All"].missing
+
+    @property
+    def coverage(self) -> float | None:
+        """Percentage of the scored questions that have a prediction."""
+        return 100.0 * self.predicted / self.total if self.total else None
+
+    def _add(self, q: Question, correct: bool, missing: bool) -> None:
+        for s in (self.columns["All"], self.columns[q.family], self.per_category.setdefault(q.category, Score()),
+                  self.per_type.setdefault(q.question_type, Score()),
+                  self.per_template.setdefault(q.template_id, Score())):
+            s.total += 1
+            s.correct += correct
+            s.missing += missing
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "questions": self.total, "predicted": self.predicted, "missing": self.missing,
+            "coverage": self.coverage,
+            "unknown_predictions": [f"{v}_{q}" for v, q in self.unknown_predictions],
+            "outside_split": self.outside_split, "split_not_in_questions": self.split_not_in_questions,
+            "dropped_templates": self.dropped_templates,
+            "accuracy": {k: s.accuracy for k, s in self.columns.items()},
+            "columns": {k: s.to_json() for k, s in self.columns.items()},
+            "per_category": {c: self.per_category[c].to_json() for c in CATEGORIES if c in self.per_category},
+            "per_type": {t: self.per_type[t].to_json() for t in QUESTION_TYPES if t in self.per_type},
+            "per_template": {t: self.per_template[t].to_json() for t in templates() if t in self.per_template},
+        }
+
+    def format(self, per_template: bool = False, compare_paper: str | None = None, label: str = "yours") -> str:
+        """A plain-text report; ``compare_paper`` ("easy" or "hard") adds the paper's rows."""
+        lines = [f"scored {self.total} questions: {self.predicted} predicted "
+                 f"({_pct(self.coverage)} % coverage), {self.missing} without prediction (counted wrong)"]
+        if self.unknown_predictions:
+            shown = ", ".join(f"{v}_{q}" for v, q in self.unknown_predictions[:5])
+            more = " ..." if len(self.unknown_predictions) > 5 else ""
+            lines.append(f"{len(self.unknown_predictions)} prediction(s) for unknown questions ignored: {shown}{more}")
+        if self.outside_split:
+            lines.append(f"{self.outside_split} prediction(s) for questions outside the selected split ignored")
+        if self.split_not_in_questions:
+            lines.append(f"{self.split_not_in_questions} question(s) of the split are not in the questions file")
+        if self.dropped_templates:
+            lines.append(f"note: {self.dropped_templates} question(s) come from the 19 templates the paper drops")
+        lines += ["", f"{'':<14}" + "".join(f"{k:>8}" for k in (*FAMILIES, "All"))]
+        lines.append(f"{'accuracy %':<14}" + "".join(f"{_pct(self.columns[k].accuracy):>8}"
+                                                    for k in (*FAMILIES, "All")))
+        lines.append(f"{'questions':<14}" + "".join(f"{self.columns[k].total:>8}" for k in (*FAMILIES, "All")))
+        lines += ["", f"{'category':<10} {'accuracy %':>10} {'correct':>8} {'total':>7} {'missing':>8}"]
+        for c in CATEGORIES:
+            if c in self.per_category:
+                s = self.per_category[c]
+                lines.append(f"{c:<10} {_pct(s.accuracy):>10} {s.correct:>8} {s.total:>7} {s.missing:>8}")
+        lines += ["", f"{'type':<15} {'accuracy %':>10} {'correct':>8} {'total':>7}"]
+        for t in QUESTION_TYPES:
+            if t in self.per_type:
+                s = self.per_type[t]
+                lines.append(f"{t:<15} {_pct(s.accuracy):>10} {s.correct:>8} {s.total:>7}")
+        if per_template:
+            lines += ["", f"{'template':<18} {'category':<7} {'accuracy %':>10} {'correct':>8} {'total':>7}"]
+            for tid in templates():
+                if tid in self.per_template:
+                    s = self.per_template[tid]
+                    lines.append(f"{tid:<18} {category_of(tid):<7} {_pct(s.accuracy):>10} {s.correct:>8} "
+                                 f"{s.total:>7}")
+        if compare_paper:
+            lines += ["", paper_table(compare_paper, self, label)]
+        return "\n".join(lines)
+
+
+def _pct(x: float | None) -> str:
+    return "-" if x is None else f"{x:.2f}"
+
+
+def paper_table(split: str, report: ScoreReport | None = None, label: str = "yours") -> str:
+    """The paper's test accuracies on ``split`` ("easy" or "hard"), with the report's row appended."""
+    if split not in ("easy", "hard"):
+        raise CraftError(f"--compare-paper takes 'easy' or 'hard', not {split!r}")
+    head = f"{'group':<13} {'model':<12}" + "".join(f"{k:>8}" for k in (*FAMILIES, "All"))
+    lines = [f"CRAFT paper, {split} split (test accuracy %)", head]
+    for row in PAPER_RESULTS:
+        values = row.easy if split == "easy" else row.hard
+        lines.append(f"{row.group:<13} {row.model:<12}" + "".join(f"{v:>8.2f}" for v in values))
+    lines.append(f"{'humans':<13} {'(481 q.)':<12}" + "".join(f"{v:>8.2f}" for v in PAPER_HUMANS))
+    if report is not None:
+        lines.append(f"{'this run':<13} {label[:12]:<12}" + "".join(
+            f"{_pct(report.columns[k].accuracy):>8}" for k in (*FAMILIES, "All")))
+    return "\n".join(lines)
+
+
+def score(
+    questions: PathLike | Sequence[Any],
+    predictions: PathLike | Mapping[Any, Any] | Sequence[Any],
+    split: Iterable[tuple[int, int]] | None = None,
+) -> ScoreReport:
+    """Score predictions against the recorded answers.
+
+    ``questions``: a ``dataset_minimal.json`` or ``dataset.json`` path, a parsed list, or :class:`Question`
+    records. ``predictions``: a path, ``{(video_index, question_index) or "v_q": answer}`` or a list of
+    ``{video_index, question_index, answer}``. ``split``: keys to score (e.g. :func:`read_split`); other
+    questions are ignored. A question without a prediction counts as wrong (and as ``missing``); a prediction
+    for a question not in ``questions`` is listed in ``unknown_predictions`` and ignored.
+    """
+    if isinstance(questions, (str, os.PathLike)):
+        qs = read_questions(questions)
+    else:
+        items = list(questions)
+        qs = items if items and all(isinstance(q, Question) for q in items) else parse_questions(items)
+    if isinstance(predictions, (str, os.PathLike)):
+        preds = read_predictions(predictions)
+    elif isinstance(predictions, Mapping) and predictions and all(isinstance(k, tuple) for k in predictions):
+        preds = dict(predictions)
+    else:
+        preds = parse_predictions(predictions)
+    report = ScoreReport()
+    known = {q.key for q in qs}
+    selected = set(split) if split is not None else None
+    if selected is not None:
+        report.split_not_in_questions = len(selected - known)
+    report.unknown_predictions = sorted(k for k in preds if k not in known)
+    for q in qs:
+        if selected is not None and q.key not in selected:
+            report.outside_split += q.key in preds
+            continue
+        if q.template_id in DROPPED:
+            report.dropped_templates += 1
+        if q.key in preds:
+            report.predicted += 1
+            report._add(q, answers_agree(preds[q.key], q.answer), False)
+        else:
+            report._add(q, False, True)
+    return report
