@@ -325,3 +325,15 @@ def test_cli_generate(reference: tuple[Path, dict[str, Any]], capsys: pytest.Cap
     assert cli_main(["generate", "--size", "0", "--out", str(out)]) == 2
     assert cli_main(["generate", "--size", "4", "--scenes", "1,x", "--out", str(out)]) == 2
     assert "error:" in capsys.readouterr().err
+
+
+def test_no_balance_keeps_every_filtered_question(tmp_path: Path) -> None:
+    from craft_dsl.cli import main as cli_main
+
+    out = tmp_path / "nb"
+    assert cli_main(["generate", "--size", "2", "--scenes", "3,4", "--steps", "200", "--perturbations", "0",
+                     "--no-balance", "--out", str(out), "--quiet"]) == 0
+    report = json.loads((out / "generation_report.json").read_text())
+    q = report["questions"]
+    assert q["final"] == q["after_post_process"] > 0
+    assert not any(q["dropped_by_balancing"].values())

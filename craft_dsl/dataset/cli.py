@@ -34,7 +34,8 @@ def cmd_generate(args: argparse.Namespace) -> int:
 
     fields: dict[str, Any] = {"size": args.size, "seed": args.seed, "steps": args.steps,
                               "perturbations": args.perturbations, "amount": args.amount,
-                              "workers": args.workers, "videos": args.videos, "engine": args.engine}
+                              "workers": args.workers, "videos": args.videos, "engine": args.engine,
+                              "balance": not args.no_balance}
     if args.scenes is not None:
         fields["scenes"] = _int_list(args.scenes)
     if args.templates is not None:
@@ -74,7 +75,8 @@ def cmd_generate(args: argparse.Namespace) -> int:
               f"-{pp} post-process, -{bal} balancing = {q['final']}")
         if q["final"] == 0 and q["after_post_process"] > 0:
             print("  warning: balancing removed every question: it purges (scene, template) groups with a single "
-                  "answer, so each scene needs several videos (e.g. --size 40 --scenes 1-4)", file=sys.stderr)
+                  "answer, so each scene needs several videos (e.g. --size 40 --scenes 1-4), or use --no-balance",
+                  file=sys.stderr)
         for name in ("hard", "random"):
             s = report["splits"][name]
             print(f"  split {name}: train {s['train']}, validation {s['validation']}, test {s['test']}")
@@ -99,5 +101,8 @@ def add_commands(sub: Any) -> None:
     gen.add_argument("--videos", action="store_true", help="also render an MP4 per video (slower)")
     gen.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"), help="physics engine")
     gen.add_argument("--templates", help="comma-separated template ids (default: all 67)")
+    gen.add_argument("--no-balance", action="store_true",
+                     help="skip answer balancing (small datasets: balancing purges every (scene, template) group "
+                          "with a single answer)")
     gen.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
     gen.set_defaults(func=cmd_generate)

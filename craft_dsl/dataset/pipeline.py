@@ -72,6 +72,7 @@ class GenerationConfig(BaseModel):
     videos: bool = Field(False, description="render an MP4 per video")
     engine: Literal["pymunk", "box2d"] = "pymunk"
     templates: tuple[str, ...] = Field(tuple(templates()), description="template ids to instantiate")
+    balance: bool = Field(True, description="answer balancing (off: keep every question that passed the filters)")
 
     @field_validator("scenes")
     @classmethod
@@ -532,7 +533,10 @@ def assemble(config: GenerationConfig, root: Path, work: Sequence[tuple[int, int
         generated.extend(qa["questions"])
 
     processed, pp_dropped = post_process(generated, shape_counts)
-    balanced, bal_counts = balance(processed, scene_of, config.seed)
+    if config.balance:
+        balanced, bal_counts = balance(processed, scene_of, config.seed)
+    else:
+        balanced, bal_counts = [dict(r) for r in processed], Counter()
     for rec in processed:
         per_template[template_id_of(rec)]["after_post_process"] += 1
     for rec in balanced:
