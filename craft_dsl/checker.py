@@ -117,7 +117,7 @@ class _Checker:
                 raise TypeCheckError(
                     f"{spec.name}: argument {k} must be a quoted {expected} value such as "
                     f'"{VOCABULARY[expected][0]}", found {found}',
-                    *_where(_pos_of(arg) or call.pos),
+                    *_where(arg.pos or call.pos),
                 )
             sides.append(Literal(canonical_value(arg.value, expected, spec.name, k, arg.pos), arg.pos))
         for a in args:
@@ -159,7 +159,7 @@ class _Checker:
             want = " or ".join(sorted(str(t) for t in expected))
             raise TypeCheckError(
                 f"{spec.name}: argument {i + 1} expects {want}, found {found}",
-                *_where(_pos_of(arg) or call.pos),
+                *_where(arg.pos or call.pos),
             )
         raise TypeCheckError(
             f"{spec.name}: no signature fits the argument types "
@@ -174,20 +174,13 @@ def _match(ov: Overload, checked: list[tuple[Expr, DslType]], allow_unique: bool
         if found == expected:
             args.append(arg)
         elif allow_unique and expected == DslType.OBJECT and found == DslType.OBJECT_SET:
-            args.append(Call("Unique", (arg,), _pos_of(arg)))
+            args.append(Call("Unique", (arg,), arg.pos))
         else:
             return None
     return args
-
-
-def _pos_of(expr: Expr) -> Position | None:
-    return expr.pos
 
 
 def check_tree(tree: Tree) -> CheckedTree:
     """Type-check a syntax tree; raise a ProgramError subclass on the first problem."""
     return _Checker().check_tree(tree)
 
-
-def is_side_input(t: DslType) -> bool:
-    return t in SIDE_INPUT_TYPES

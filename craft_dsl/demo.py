@@ -8,22 +8,14 @@ import time
 from typing import Any
 
 from .program import to_json
-from .templates import instantiate, question_text, templates
+from .templates import first_instances, question_text
 
 
 def answer_templates(sim: Any, include_dropped: bool = False) -> list[dict[str, Any]]:
     """One question per template (first valid binding), with its program and answer."""
-    rows = []
-    for t in templates().values():
-        if t.dropped and not include_dropped:
-            continue
-        found = instantiate(t, sim)
-        if found is None:
-            continue
-        params, answer = found
-        rows.append({"template": t.id, "question": question_text(t.id, params),
-                     "program": str(t.program(params)), "answer": to_json(answer)})
-    return rows
+    return [{"template": t.id, "question": question_text(t.id, params), "program": str(program),
+             "answer": to_json(answer)}
+            for t, params, program, answer in first_instances(sim, include_dropped)]
 
 
 def cmd_demo(args: argparse.Namespace) -> int:

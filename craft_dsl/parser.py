@@ -16,11 +16,9 @@ from .syntax import Binding, Call, Expr, Literal, Ref, Tree
 _QUOTES = '"\u201c\u201d'
 
 
-def _pos(tok: Token | LarkTree) -> tuple[int, int] | None:
-    if isinstance(tok, Token):
-        return (tok.line or 0, tok.column or 0)
-    meta = tok.meta
-    return (meta.line, meta.column) if not meta.empty else None
+def _pos(tok: Token) -> tuple[int, int]:
+    """(line, column) of a token; positions of syntax nodes are those of their first token."""
+    return (tok.line or 0, tok.column or 0)
 
 
 @v_args(tree=True)
@@ -38,7 +36,7 @@ class _ToSyntax(Transformer):
         return Call(str(name), tuple(a for a in args if a is not None), _pos(name))
 
     def string(self, t: LarkTree) -> Literal:
-        (tok,) = t.children
+        (tok,) = cast(list[Any], t.children)
         return Literal(str(tok).strip(_QUOTES), _pos(tok))
 
     def integer(self, t: LarkTree) -> Literal:
@@ -46,7 +44,7 @@ class _ToSyntax(Transformer):
         return Literal(int(tok), _pos(tok))
 
     def ref(self, t: LarkTree) -> Ref:
-        (tok,) = t.children
+        (tok,) = cast(list[Any], t.children)
         return Ref(str(tok), _pos(tok))
 
 

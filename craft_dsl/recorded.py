@@ -22,7 +22,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from .atomic import write_json_atomic
 from .errors import CounterfactualUnavailable, SimulationFileError
 from .simulation import Event, ObjectState, SimObject, Simulation
-from .vocabulary import END, ORIGINAL_EVENT_TYPE, START, canonical_event_type
+from .vocabulary import END, ORIGINAL_EVENT_TYPE, canonical_event_type
 
 # -- file schema (only what the engine reads is required) -----------------------------------------------
 
@@ -330,5 +330,4 @@ def save_simulation(sim: Simulation, path: str | os.PathLike[str], variations: b
     write_json_atomic(simulation_dict(sim, variations), path)
 
 
-__all__ = ["load_simulation", "save_simulation", "simulation_dict", "bare_output", "write_json_atomic",
-           "START"]
+__all__ = ["load_simulation", "save_simulation", "simulation_dict", "bare_output", "write_json_atomic"]

@@ -244,10 +244,6 @@ class Simulation:
             self._causal_graph = causal_graph_from_events(self.events, self.dynamic_ids)
         return self._causal_graph
 
-    @property
-    def event_by_id(self) -> dict[int, Event]:
-        return {e.id: e for e in self.events}
-
     # -- counterfactuals --------------------------------------------------------------------------
 
     def counterfactual(self, object_id: int) -> Simulation:

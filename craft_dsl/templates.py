@@ -7,6 +7,7 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -95,6 +96,23 @@ def question_text(template_id: str, params: dict[str, str], paraphrase: int = 0)
 
 
 def instantiate(template: Template, sim: Any) -> tuple[dict[str, str], Any] | None:
+    """The first valid binding and its answer, or None (see :func:`first_instance`)."""
+    found = first_instance(template, sim)
+    return None if found is None else (found[0], found[2])
+
+
+def first_instances(sim: Any, include_dropped: bool = False) -> Iterator[tuple[Template, dict[str, str], Program, Any]]:
+    """``(template, params, program, answer)`` for every template with a valid binding on ``sim``, in file order
+    (the 19 dropped templates only with ``include_dropped``)."""
+    for template in templates().values():
+        if template.dropped and not include_dropped:
+            continue
+        found = first_instance(template, sim)
+        if found is not None:
+            yield (template, *found)
+
+
+def first_instance(template: Template, sim: Any) -> tuple[dict[str, str], Program, Any] | None:
     """The first binding (objects in ascending id order) whose answer is not INVALID, or None.
 
     Object placeholders (<Z> <C> <S>, <Z2> <C2> <S2>) describe dynamic objects of ``sim``; a lone
@@ -120,7 +138,8 @@ def instantiate(template: Template, sim: Any) -> tuple[dict[str, str], Any] | No
     else:
         candidates = [{}]
     for params in candidates:
-        answer = template.program(params).run(sim)
+        program = template.program(params)
+        answer = program.run(sim)
         if answer is not INVALID:
-            return params, answer
+            return params, program, answer
     return None

@@ -27,8 +27,6 @@ class DslType(str, Enum):
 
 #: Types whose values are written as literals in a program ("Small", "Yellow", 3).
 SIDE_INPUT_TYPES = (DslType.COLOR, DslType.SHAPE, DslType.SIZE)
-#: Types a program may return as its answer.
-ANSWER_TYPES = (DslType.BOOL, DslType.INTEGER, DslType.COLOR, DslType.SHAPE, DslType.SIZE)
 
 
 class _Invalid:

@@ -9,7 +9,7 @@ from typing import Any
 
 from ..program import to_json
 from ..simulation import Simulation
-from ..templates import question_text, templates
+from ..templates import first_instances, question_text
 
 
 def build_dataset(
@@ -26,7 +26,6 @@ def build_dataset(
     filter, no random object choice; the 19 dropped templates are left out unless ``include_dropped``.
     """
     from ..recorded import simulation_dict
-    from ..templates import instantiate
 
     items = sorted(sims.items()) if isinstance(sims, Mapping) else list(enumerate(sims))
     dataset: list[dict[str, Any]] = []
@@ -37,17 +36,11 @@ def build_dataset(
         sid = str(sim.meta.get("scene", found_sid.group(1) if found_sid else "0"))
         video_path = f"./videos/sid_{sid}/{id6}.mpg"
         records: list[dict[str, Any]] = []
-        for tid, template in templates().items():
-            if template.dropped and not include_dropped:
-                continue
-            found = instantiate(template, sim)
-            if found is None:
-                continue
-            params, answer = found
+        for template, params, program, answer in first_instances(sim, include_dropped):
             records.append({
                 "video_filename": video_path, "video_index": video_index, "video": id6,
-                "question": question_text(tid, params),
-                "program": template.program(params).to_nodes(outputs=sim),
+                "question": question_text(template.id, params),
+                "program": program.to_nodes(outputs=sim),
                 "answer": to_json(answer, original=True),
                 "template_filename": f"{template.family}.json", "question_family_index": template.index,
                 "question_index": len(records),
