@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from ..errors import CraftError
@@ -44,9 +44,7 @@ class Mismatch:
     recomputed: Any
 
     def to_json(self) -> dict[str, Any]:
-        return {"video_index": self.video_index, "question_index": self.question_index,
-                "template_id": self.template_id, "program": self.program, "question": self.question,
-                "recorded": self.recorded, "recomputed": self.recomputed}
+        return asdict(self)
 
 
 @dataclass(frozen=True)
@@ -60,8 +58,7 @@ class VerifyError:
     message: str
 
     def to_json(self) -> dict[str, Any]:
-        return {"video_index": self.video_index, "question_index": self.question_index,
-                "template_id": self.template_id, "kind": self.kind, "message": self.message}
+        return asdict(self)
 
 
 @dataclass
