@@ -9,22 +9,29 @@ turns every such hook off.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from hypothesis.strategies import SearchStrategy
+
+    from .program import Program
+    from .simulation import Simulation
+    from .world import WorldSpec
 
 
-def _programs(_: type) -> Any:
+def _programs(_: type) -> SearchStrategy[Program]:
     from .strategies import programs
 
     return programs()
 
 
-def _simulations(_: type) -> Any:
+def _simulations(_: type) -> SearchStrategy[Simulation]:
     from .strategies import simulations
 
     return simulations()
 
 
-def _world_specs(_: type) -> Any:
+def _world_specs(_: type) -> SearchStrategy[WorldSpec]:
     from .strategies import world_specs
 
     return world_specs()
