@@ -394,6 +394,8 @@ _EVENT_STEPS = (0, 10, 20, 40, 80, 160, 320, 590)
 _TOUCH_STEPS = st.sampled_from((COLLISION_MAX_STEPS + 1, 40, 100))
 _EPISODE_KIND = st.sampled_from((COLLISION, TOUCH_START, ENTER_BASKET))
 _STATIC_ELEMENT = st.sampled_from(STATIC_ELEMENT_SHAPES)
+#: How object ids are given: as the simulator does (creation order, N-1 down to 0), the other way, or shuffled.
+_ID_LAYOUT = st.sampled_from(("simulator", "reversed", "shuffled"))
 
 #: An episode: the events of one contact (Collision, TouchStart [+ TouchEnd]) or one EnterBasket.
 Episode = tuple[tuple[int, str, tuple[int, ...]], ...]
@@ -440,7 +442,10 @@ def _episodes(draw: st.DrawFn, dynamic: Sequence[int], others: Sequence[Sequence
     partner = {"ground": ground, "basket": basket}.get(draw(_PARTNER), -1)
     if partner < 0:
         partner = others[k][draw(st.integers(0, len(others[k]) - 1))] if others[k] else ground
-    pair = (partner, mover) if draw(st.booleans()) else (mover, partner)
+    if partner in dynamic:  # two dynamic objects, in either order
+        pair = (partner, mover) if draw(st.booleans()) else (mover, partner)
+    else:  # the static one first, as the simulator reports it
+        pair = (partner, mover)
     if kind == COLLISION or step + COLLISION_MAX_STEPS + 1 >= steps:  # too late to become a touch
         return ((step, COLLISION, pair),)
     end = step + draw(_TOUCH_STEPS)
@@ -468,20 +473,23 @@ def _events(episodes: Iterable[Episode], steps: int) -> list[Event]:
 def _drawn_simulations(draw: st.DrawFn, max_dynamic: int, max_static: int, max_events: int,
                        steps: int) -> Simulation:
     triples = draw(st.lists(_TRIPLE, min_size=1, max_size=max_dynamic, unique=True))
-    statics = ["ground", "basket"]
-    if draw(st.booleans()):
-        statics += ["wall_l", "wall_r"]
+    # creation order, as the simulator builds a scene: walls, ground, basket, other statics, dynamic objects
+    statics = (["wall_l", "wall_r"] if draw(st.booleans()) else []) + ["ground", "basket"]
     statics += draw(st.lists(_STATIC_ELEMENT, max_size=max_static))
-    # identity permutation: dynamic objects get the smallest ids, as the simulator numbers them
-    ids = draw(st.permutations(range(len(triples) + len(statics))))
-    dynamic = list(ids[:len(triples)])
-    objects = [SimObject(oid, shape, color, size, True, ObjectState(velocity=draw(_VELOCITY)),
-                         ObjectState(velocity=draw(_VELOCITY)))
-               for oid, (size, color, shape) in zip(dynamic, triples)]
-    objects += [SimObject(oid, shape, STATIC_COLOR, STATIC_SIZE, False)
-                for oid, shape in zip(ids[len(triples):], statics)]
-    basket = ids[len(triples) + 1]
-    ground = ids[len(triples)]
+    n = len(statics) + len(triples)
+    layout = draw(_ID_LAYOUT)
+    if layout == "simulator":  # uniqueIDs N-1 ... 0: the last dynamic object gets id 0
+        ids = list(range(n - 1, -1, -1))
+    elif layout == "reversed":
+        ids = list(range(n))
+    else:
+        ids = list(draw(st.permutations(range(n))))
+    static_ids, dynamic = ids[:len(statics)], ids[len(statics):]
+    objects = [SimObject(oid, shape, STATIC_COLOR, STATIC_SIZE, False) for oid, shape in zip(static_ids, statics)]
+    objects += [SimObject(oid, shape, color, size, True, ObjectState(velocity=draw(_VELOCITY)),
+                          ObjectState(velocity=draw(_VELOCITY)))
+                for oid, (size, color, shape) in zip(dynamic, triples)]
+    ground, basket = static_ids[statics.index("ground")], static_ids[statics.index("basket")]
     factual = draw(st.lists(_episode_strategy(dynamic, ids, ground, basket, steps), max_size=max_events))
     counterfactual_events: dict[int, list[Event]] = {}
     for removed in dynamic:
