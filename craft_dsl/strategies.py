@@ -392,18 +392,12 @@ _TRIPLE = st.sampled_from(tuple(itertools.product(SIZES, COLORS, SHAPES)))
 _EVENT_STEPS = (0, 10, 20, 40, 80, 160, 320, 590)
 #: How long a touching contact lasts (longer than a Collision's COLLISION_MAX_STEPS).
 _TOUCH_STEPS = st.sampled_from((COLLISION_MAX_STEPS + 1, 40, 100))
-_EPISODE_KIND = st.sampled_from((COLLISION, TOUCH_START, ENTER_BASKET))
 _STATIC_ELEMENT = st.sampled_from(STATIC_ELEMENT_SHAPES)
 #: How object ids are given: as the simulator does (creation order, N-1 down to 0), the other way, or shuffled.
 _ID_LAYOUT = st.sampled_from(("simulator", "reversed", "shuffled"))
 
 #: An episode: the events of one contact (Collision, TouchStart [+ TouchEnd]) or one EnterBasket.
 Episode = tuple[tuple[int, str, tuple[int, ...]], ...]
-
-
-@lru_cache(maxsize=16)
-def _event_step(steps: int) -> st.SearchStrategy[int]:
-    return st.sampled_from([s for s in _EVENT_STEPS if s < steps] or [0])
 
 
 class _DrawnSimulation(Simulation):
@@ -423,29 +417,27 @@ class _DrawnSimulation(Simulation):
                 f"events=[{events(self)}], counterfactuals={{{cfs}}})")
 
 
-#: Who a dynamic object touches: the ground (1 in 3), the basket (1 in 6) or any other object (1 in 2).
-_PARTNER = st.sampled_from(("ground", "ground", "basket", "other", "other", "other"))
+@lru_cache(maxsize=16)
+def _timing(steps: int) -> tuple[st.SearchStrategy[int], st.SearchStrategy[tuple[str, int]]]:
+    """Steps of an event, and (contact type, step) of a contact: Collisions first, then touches."""
+    at = [s for s in _EVENT_STEPS if s < steps] or [0]
+    return st.sampled_from(at), st.sampled_from([(kind, s) for kind in (COLLISION, TOUCH_START) for s in at])
 
 
 @st.composite
-def _episodes(draw: st.DrawFn, dynamic: Sequence[int], others: Sequence[Sequence[int]], ground: int, basket: int,
+def _episodes(draw: st.DrawFn, targets: st.SearchStrategy[tuple[str, int, int]], dynamic: frozenset[int],
               steps: int) -> Episode:
     """One episode: a dynamic object touches something (a Collision, or a TouchStart and maybe its TouchEnd), or
-    enters the basket (objects [basket, object]). ``others[k]``: who ``dynamic[k]`` may touch besides the ground
-    and the basket."""
-    kind = draw(_EPISODE_KIND)
-    step = draw(_event_step(steps))
-    k = draw(st.integers(0, len(dynamic) - 1))
-    mover = dynamic[k]
-    if kind == ENTER_BASKET:
-        return ((step, ENTER_BASKET, (basket, mover)),)
-    partner = {"ground": ground, "basket": basket}.get(draw(_PARTNER), -1)
-    if partner < 0:
-        partner = others[k][draw(st.integers(0, len(others[k]) - 1))] if others[k] else ground
-    if partner in dynamic:  # two dynamic objects, in either order
-        pair = (partner, mover) if draw(st.booleans()) else (mover, partner)
+    enters the basket (objects [basket, object]); ``targets`` draws (what, dynamic object, other object)."""
+    what, mover, other = draw(targets)
+    step_of, contact = _timing(steps)
+    if what == ENTER_BASKET:
+        return ((draw(step_of), ENTER_BASKET, (other, mover)),)
+    kind, step = draw(contact)
+    if other in dynamic:  # two dynamic objects, in either order
+        pair = (other, mover) if draw(st.booleans()) else (mover, other)
     else:  # the static one first, as the simulator reports it
-        pair = (partner, mover)
+        pair = (other, mover)
     if kind == COLLISION or step + COLLISION_MAX_STEPS + 1 >= steps:  # too late to become a touch
         return ((step, COLLISION, pair),)
     end = step + draw(_TOUCH_STEPS)
@@ -456,8 +448,32 @@ def _episodes(draw: st.DrawFn, dynamic: Sequence[int], others: Sequence[Sequence
 
 def _episode_strategy(dynamic: Sequence[int], everyone: Sequence[int], ground: int, basket: int,
                       steps: int) -> st.SearchStrategy[Episode]:
-    others = [[o for o in everyone if o not in (d, ground, basket)] for d in dynamic]
-    return _episodes(dynamic, others, ground, basket, steps)
+    """Episodes of ``dynamic`` objects (one choice draws the object and what it does): contacts with the ground are
+    the most frequent (as in CRAFT videos), then entries into the basket, then contacts with the basket or any
+    other object."""
+    targets: list[tuple[str, int, int]] = []
+    for d in dynamic:
+        others = [o for o in everyone if o not in (d, ground, basket)]
+        targets += [("contact", d, ground), (ENTER_BASKET, d, basket), ("contact", d, ground), ("contact", d, basket),
+                    ("contact", d, ground), (ENTER_BASKET, d, basket), ("contact", d, ground)]
+        targets += [("contact", d, o) for o in others]
+    return _episodes(st.sampled_from(tuple(targets)), frozenset(dynamic), steps)
+
+
+def _consistent(episodes: Iterable[Episode], steps: int) -> list[Episode]:
+    """The episodes, less those that overlap an earlier one of the same objects: two objects do not start a
+    contact while they touch, and an object does not enter the basket twice in one step."""
+    busy: dict[tuple[bool, frozenset[int]], list[tuple[int, int]]] = {}
+    kept = []
+    for episode in episodes:
+        first_step, kind, objects = episode[0]
+        last_step = episode[-1][0] if len(episode) > 1 else (steps if kind == TOUCH_START else first_step)
+        key = (kind == ENTER_BASKET, frozenset(objects))
+        if any(first_step <= end and start <= last_step for start, end in busy.get(key, ())):
+            continue
+        busy.setdefault(key, []).append((first_step, last_step))
+        kept.append(episode)
+    return kept
 
 
 def _events(episodes: Iterable[Episode], steps: int) -> list[Event]:
@@ -472,7 +488,8 @@ def _events(episodes: Iterable[Episode], steps: int) -> list[Event]:
 @st.composite
 def _drawn_simulations(draw: st.DrawFn, max_dynamic: int, max_static: int, max_events: int,
                        steps: int) -> Simulation:
-    triples = draw(st.lists(_TRIPLE, min_size=1, max_size=max_dynamic, unique=True))
+    n_dynamic = draw(st.integers(1, max_dynamic))
+    triples = draw(st.lists(_TRIPLE, min_size=n_dynamic, max_size=n_dynamic, unique=True))
     # creation order, as the simulator builds a scene: walls, ground, basket, other statics, dynamic objects
     statics = (["wall_l", "wall_r"] if draw(st.booleans()) else []) + ["ground", "basket"]
     statics += draw(st.lists(_STATIC_ELEMENT, max_size=max_static))
@@ -490,7 +507,8 @@ def _drawn_simulations(draw: st.DrawFn, max_dynamic: int, max_static: int, max_e
                           ObjectState(velocity=draw(_VELOCITY)))
                 for oid, (size, color, shape) in zip(dynamic, triples)]
     ground, basket = static_ids[statics.index("ground")], static_ids[statics.index("basket")]
-    factual = draw(st.lists(_episode_strategy(dynamic, ids, ground, basket, steps), max_size=max_events))
+    factual = _consistent(draw(st.lists(_episode_strategy(dynamic, ids, ground, basket, steps),
+                                        max_size=max_events)), steps)
     counterfactual_events: dict[int, list[Event]] = {}
     for removed in dynamic:
         rest = [o for o in ids if o != removed]
@@ -501,7 +519,7 @@ def _drawn_simulations(draw: st.DrawFn, max_dynamic: int, max_static: int, max_e
         kept = [ep for k, ep in enumerate(candidates) if not dropped >> k & 1]
         new = draw(st.lists(_episode_strategy(movers, rest, ground, basket, steps),
                             max_size=max_events // 4)) if movers else []
-        counterfactual_events[removed] = _events(kept + new, steps)
+        counterfactual_events[removed] = _events(_consistent(kept + new, steps), steps)
 
     def counterfactual(removed: int) -> Simulation:
         if removed not in counterfactual_events:
@@ -526,7 +544,7 @@ def simulations(
     live: bool = False,
     max_dynamic: int = 4,
     max_static: int = 2,
-    max_events: int = 8,
+    max_events: int = 12,
     steps: int | None = None,
     scene: int | Iterable[int] | None = None,
 ) -> st.SearchStrategy[Simulation]:

@@ -4,11 +4,13 @@ the entry point behind st.from_type, and soundness of the type checker over draw
 from __future__ import annotations
 
 import importlib.metadata
+import importlib.util
 import re
 import subprocess
 import sys
 from collections import Counter
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -25,6 +27,7 @@ from craft_dsl import (
     WorldSpec,
 )
 from craft_dsl.dataset.synonyms import SYNONYMS
+from craft_dsl.recorded import load_simulation, simulation_dict
 from craft_dsl.registry import lookup
 from craft_dsl.scenes import list_scenes, sample_world
 from craft_dsl.strategies import (
@@ -41,6 +44,7 @@ from craft_dsl.vocabulary import COLLISION, COLORS, END, ENTER_BASKET, SHAPES, S
 from tests.dsl_values import check_run
 from tests.program_text import Node, inlined, overloads_used, read
 
+ROOT = Path(__file__).resolve().parents[1]
 SETTINGS = settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 #: Fixed draws: coverage tests see the same examples on every run.
 SEEDED = settings(max_examples=400, deadline=None, derandomize=True, database=None,
@@ -279,22 +283,29 @@ def check_simulation(sim: Simulation) -> None:
 
 
 def check_events(sim: Simulation, ids: set[int], dynamic: set[int]) -> None:
+    """Start first, End last; contacts between two objects, one of them dynamic, that never overlap (a TouchEnd
+    ends a touch that started, nothing starts while a pair touches); entries of dynamic objects into the basket."""
     events = sim.events
     assert events[0].type == START and events[-1].type == END and events[-1].step == sim.steps
-    touching: Counter[frozenset[int]] = Counter()
+    touching: set[frozenset[int]] = set()
+    entries: set[tuple[int, int]] = set()
     for e in events[1:-1]:
         assert set(e.objects) <= ids and 0 <= e.step < sim.steps
         if e.type == ENTER_BASKET:
             assert e.objects[0] == sim.basket_id and e.objects[1] in dynamic
+            assert (e.step, e.objects[1]) not in entries, f"{e} enters the basket twice in one step"
+            entries.add((e.step, e.objects[1]))
             continue
         assert e.type in (COLLISION, TOUCH_START, TOUCH_END) and len(set(e.objects)) == 2
         assert set(e.objects) & dynamic, e
         pair = frozenset(e.objects)
-        if e.type == TOUCH_START:
-            touching[pair] += 1
-        elif e.type == TOUCH_END:
-            assert touching[pair] > 0, f"{e} ends a touch that never started"
-            touching[pair] -= 1
+        if e.type == TOUCH_END:
+            assert pair in touching, f"{e} ends a touch that never started"
+            touching.remove(pair)
+        else:
+            assert pair not in touching, f"{e} starts while the pair touches"
+            if e.type == TOUCH_START:
+                touching.add(pair)
 
 
 @settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -320,6 +331,16 @@ def test_drawn_simulations_cover_every_event_type_ties_and_the_moving_threshold(
     wanted = (START, END, COLLISION, TOUCH_START, TOUCH_END, ENTER_BASKET, "tie", "at threshold", "moving",
               "static extra", "cf event")
     assert all(found[k] > 0 for k in wanted), found
+
+
+@settings(max_examples=50, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(simulations())
+def test_drawn_simulations_are_valid_recorded_files(sim: Simulation) -> None:
+    """Written in the original JSON format and loaded back, a drawn simulation is the same simulation."""
+    loaded = load_simulation(simulation_dict(sim))
+    assert loaded.objects == sim.objects and loaded.events == sim.events and loaded.steps == sim.steps
+    for removed in sim.dynamic_ids:
+        assert loaded.counterfactual(removed).events == sim.counterfactual(removed).events
 
 
 @settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -423,3 +444,27 @@ def test_every_template_has_an_instance_on_a_drawn_simulation(drawn_simulations:
     without = [t.id for t in templates().values()
                if not any(first_instance(t, sim) is not None for sim in drawn_simulations)]
     assert not without, without
+
+
+# -- the worked example of docs/strategies.md -----------------------------------------------------------------
+
+
+def test_the_worked_example_passes() -> None:
+    """examples/oracle_properties.py (a toy parser and executor checked against the oracle) passes, and the code
+    docs/strategies.md shows from it is the code that runs."""
+    path = ROOT / "examples" / "oracle_properties.py"
+    spec = importlib.util.spec_from_file_location("oracle_properties", path)
+    assert spec is not None and spec.loader is not None
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    tests = [getattr(example, name) for name in dir(example) if name.startswith("test_")]
+    assert len(tests) == 4
+    for test in tests:
+        settings(max_examples=25, database=None, deadline=None)(test)()
+    docs = (ROOT / "docs" / "strategies.md").read_text(encoding="utf-8")
+    worked = docs.split("## Worked example", 1)[1].split("\n## ", 1)[0]
+    blocks = re.findall(r"```python\n(.*?)```", worked, flags=re.S)
+    assert len(blocks) >= 3
+    source = path.read_text(encoding="utf-8")
+    for block in blocks:
+        assert block in source, f"docs/strategies.md shows code that examples/oracle_properties.py lacks:\n{block}"
