@@ -150,11 +150,13 @@ class _Grammar:
         self.types: list[DslType] = sorted(self.call_depth, key=lambda t: (self.call_depth[t], list(DslType).index(t)))
         by_type = {t: sorted((p for p in depth_of if p.output is t), key=lambda p: (depth_of[p], len(p.inputs), p.rank))
                    for t in self.types}
-        #: Every production, in rounds: the simplest of each type (fewer nested calls, then fewer inputs, then
-        #: registry order), then the second simplest of each type, ... Spreading each type's productions over the
-        #: list keeps the modules of one type about equally likely where that type is expected (see choices()).
-        self.order: list[_Production] = [ps[r] for r in range(max(map(len, by_type.values()), default=0))
-                                         for ps in by_type.values() if r < len(ps)]
+        #: Every production. Each type's productions, simplest first (fewer nested calls, then fewer inputs, then
+        #: registry order), are spread evenly over the list: the k-th of n stands at k / n of its length. So where
+        #: one type is expected, each of its modules takes about as many indices as any other (see choices()), and
+        #: a lower index is a simpler module.
+        self.order: list[_Production] = sorted(
+            (p for ps in by_type.values() for p in ps),
+            key=lambda p: (by_type[p.output].index(p) / len(by_type[p.output]), self.types.index(p.output)))
         self._choices: dict[tuple[tuple[DslType, ...], int], tuple[int, tuple[_Production, ...]] | None] = {}
 
     def choices(self, types: tuple[DslType, ...], budget: int) -> tuple[int, tuple[_Production, ...]] | None:
@@ -553,11 +555,12 @@ def simulations(
     By default, small simulations built directly (no physics, hundreds per second): ground and basket, maybe
     the two walls and up to ``max_static`` platforms, ramps or static balls, 1 to ``max_dynamic`` dynamic objects
     with unique (size, colour, shape) and start/end velocities around the 0.001 m/s moving threshold; up to
-    ``max_events`` episodes (Collision, TouchStart/TouchEnd pairs, EnterBasket into the basket) at few distinct
-    steps, so events tie, between Start and End; and a counterfactual simulation for every dynamic object (the
-    same objects less that one, the factual events that do not involve it, kept or not, and new ones). Asking
-    for the counterfactual of a static object raises :class:`~craft_dsl.CounterfactualUnavailable`.
-    ``steps`` is the length of the video (default 600).
+    ``max_events`` episodes of dynamic objects (Collisions and TouchStart/TouchEnd pairs, most of them with the
+    ground, never overlapping for one pair; EnterBasket into the basket) at few distinct steps, so events tie,
+    between Start and End; and a counterfactual simulation for every dynamic object (the same objects less that
+    one, the factual events that do not involve it, kept or not, and new ones). Asking for the counterfactual
+    of a static object raises :class:`~craft_dsl.CounterfactualUnavailable`. ``steps`` is the length of the
+    video (default 600).
 
     With ``live=True``: a live physics run (:func:`craft_dsl.physics.simulate`, pymunk) of ``steps`` steps
     (default 240) of a world drawn by :func:`world_specs` (``scene``: as there), with clean counterfactuals.
