@@ -509,8 +509,9 @@ def _drawn_simulations(draw: st.DrawFn, max_dynamic: int, max_static: int, max_e
                           ObjectState(velocity=draw(_VELOCITY)))
                 for oid, (size, color, shape) in zip(dynamic, triples)]
     ground, basket = static_ids[statics.index("ground")], static_ids[statics.index("basket")]
+    # at least one episode per dynamic object but one (a scene with one dynamic object may have no event)
     factual = _consistent(draw(st.lists(_episode_strategy(dynamic, ids, ground, basket, steps),
-                                        max_size=max_events)), steps)
+                                        min_size=min(len(dynamic) - 1, max_events), max_size=max_events)), steps)
     counterfactual_events: dict[int, list[Event]] = {}
     for removed in dynamic:
         rest = [o for o in ids if o != removed]
@@ -552,15 +553,19 @@ def simulations(
 ) -> st.SearchStrategy[Simulation]:
     """Simulations that exercise the DSL.
 
-    By default, small simulations built directly (no physics, hundreds per second): ground and basket, maybe
-    the two walls and up to ``max_static`` platforms, ramps or static balls, 1 to ``max_dynamic`` dynamic objects
-    with unique (size, colour, shape) and start/end velocities around the 0.001 m/s moving threshold; up to
-    ``max_events`` episodes of dynamic objects (Collisions and TouchStart/TouchEnd pairs, most of them with the
-    ground, never overlapping for one pair; EnterBasket into the basket) at few distinct steps, so events tie,
-    between Start and End; and a counterfactual simulation for every dynamic object (the same objects less that
-    one, the factual events that do not involve it, kept or not, and new ones). Asking for the counterfactual
-    of a static object raises :class:`~craft_dsl.CounterfactualUnavailable`. ``steps`` is the length of the
-    video (default 600).
+    By default, small simulations built directly (no physics, hundreds per second):
+
+    * ground and basket, maybe the two walls, up to ``max_static`` platforms, ramps or static balls;
+    * 1 to ``max_dynamic`` dynamic objects with unique (size, colour, shape) and start/end velocities around
+      the 0.001 m/s moving threshold;
+    * between Start and End, up to ``max_events`` episodes of dynamic objects (at least one per dynamic object
+      but one): Collisions and TouchStart/TouchEnd pairs, most of them with the ground, never overlapping for
+      one pair, and EnterBasket into the basket, at few distinct steps, so that events tie;
+    * a counterfactual simulation for every dynamic object: the same objects less that one, the factual
+      events that do not involve it (kept or not) and new ones. Asking for the counterfactual of a static
+      object raises :class:`~craft_dsl.CounterfactualUnavailable`.
+
+    ``steps`` is the length of the video (default 600).
 
     With ``live=True``: a live physics run (:func:`craft_dsl.physics.simulate`, pymunk) of ``steps`` steps
     (default 240) of a world drawn by :func:`world_specs` (``scene``: as there), with clean counterfactuals.

