@@ -62,12 +62,12 @@ class Table:
         return [dict(zip(self.columns, row, strict=True)) for row in self.rows]
 
 
-def _template_order(tid: str) -> int:
+def template_order(tid: str) -> int:
     order = list(templates())
     return order.index(tid) if tid in order else len(order)
 
 
-def _answer_order(answer: str) -> tuple[int, int, str]:
+def answer_order(answer: str) -> tuple[int, int, str]:
     """Counts numerically first, then booleans, then words alphabetically."""
     if answer.isdigit():
         return (0, int(answer), "")
@@ -83,7 +83,7 @@ def answers_per_template(records: Iterable[Mapping[str, Any]]) -> Table:
     counts: Counter[tuple[str, str, str, str]] = Counter(
         (r["template_id"], r["category"], str(r.get("answer_type", "")), str(r["answer"])) for r in records)
     rows = [(t, c, k, a, n) for (t, c, k, a), n in counts.items()]
-    rows.sort(key=lambda row: (_template_order(row[0]), _answer_order(row[3])))
+    rows.sort(key=lambda row: (template_order(row[0]), answer_order(row[3])))
     return Table("answers_per_template", "Answer distribution per template",
                  ("template_id", "category", "answer_type", "answer", "count"), rows)
 
@@ -92,7 +92,7 @@ def answers_per_category(records: Iterable[Mapping[str, Any]]) -> Table:
     counts: Counter[tuple[str, str, str]] = Counter(
         (r["category"], str(r.get("answer_type", "")), str(r["answer"])) for r in records)
     rows = [(c, k, a, n) for (c, k, a), n in counts.items()]
-    rows.sort(key=lambda row: (CATEGORIES.index(row[0]), _answer_order(row[2])))
+    rows.sort(key=lambda row: (CATEGORIES.index(row[0]), answer_order(row[2])))
     return Table("answers_per_category", "Answer distribution per paper category",
                  ("category", "answer_type", "answer", "count"), rows)
 
@@ -239,7 +239,7 @@ def format_baselines(table: Table) -> str:
 
 
 __all__ = [
-    "BASELINES", "COLUMNS", "EVENT_TYPES", "Table", "all_tables", "answers_per_category", "answers_per_template",
-    "baselines_table", "events_per_video", "format_baselines", "heuristic_baselines", "objects_per_scene",
-    "paper_baselines", "question_tables", "question_types_per_scene",
+    "BASELINES", "COLUMNS", "EVENT_TYPES", "Table", "all_tables", "answer_order", "answers_per_category",
+    "answers_per_template", "baselines_table", "events_per_video", "format_baselines", "heuristic_baselines",
+    "objects_per_scene", "paper_baselines", "question_tables", "question_types_per_scene", "template_order",
 ]
