@@ -63,6 +63,8 @@ _WORD = re.compile(r"\w+|[^\w\s]")
 _FINAL_PUNCTUATION = frozenset("?.!")
 _TEMPLATE_TOKEN = re.compile(r"\*([^*]+)\*|<([ZCS])(2?)>(s?)|(\w+)|([^\w\s])")
 _STAR = re.compile(r"\*(.+?)\*")
+#: Only this many leading words are compared to find the closest template (the longest paraphrase has 19 words).
+_DIAGNOSED_WORDS = 64
 
 #: Texts the post-process fixes were written for: (template ids, paraphrase text before, the unfixed text).
 _UNFIXED_FORMS: tuple[tuple[frozenset[str], str, str], ...] = (
@@ -262,10 +264,13 @@ class _Automaton:
         shown = _strip([w for w in _WORD.findall(text) if w != ","])
         words = [w.lower() for w in shown]
         quoted = " ".join(text.split())
+        if len(quoted) > 200:
+            quoted = quoted[:197] + "..."
         if not words:
             return QuestionParseError(f'no CRAFT template matches "{quoted}": the question is empty', question=text)
         every = self.paraphrases
-        best = every[min(range(len(every)), key=lambda n: (every[n].distance(words), -every[n].prefix(words)[0], n))]
+        head = words[:_DIAGNOSED_WORDS]
+        best = every[min(range(len(every)), key=lambda n: (every[n].distance(head), -every[n].prefix(head)[0], n))]
         matched, state = best.prefix(words)
         expected = tuple(best.edges[state]) + ((END,) if state == best.final else ())
         allowed = _alternatives(expected)

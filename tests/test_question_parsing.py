@@ -297,6 +297,13 @@ def test_error_word_keeps_the_questions_letter_case() -> None:
         match_question("HOW MANY CUBES FLY TO THE GROUND?")
 
 
+def test_a_long_question_gets_a_short_message() -> None:
+    with pytest.raises(QuestionParseError) as info:
+        match_question("how many " + "x " * 5000)
+    assert len(str(info.value)) < 600 and "..." in str(info.value)
+    assert (info.value.word_index, info.value.found) == (3, "x")
+
+
 @pytest.mark.parametrize("question", ["", "   ", "?", " ?? "])
 def test_empty_question(question: str) -> None:
     with pytest.raises(QuestionParseError, match="the question is empty"):
