@@ -84,3 +84,32 @@ class CounterfactualUnavailable(CraftError):
 
 class EvaluationError(CraftError):
     """A program asked for something the simulation does not have (e.g. a state index out of range)."""
+
+
+class QuestionParseError(CraftError):
+    """A question text matches no CRAFT template.
+
+    The message names the closest template (id and paraphrase) and the word where the question diverged from it;
+    the same facts are attributes: ``question``, ``template_id``, ``paraphrase`` (index), ``word_index`` (1-based;
+    ``len(words) + 1`` when the question ended too early), ``found`` (the word, or None at the end) and
+    ``expected`` (the words allowed there; ``"<end>"`` stands for the end of the question).
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        question: str,
+        template_id: str | None = None,
+        paraphrase: int | None = None,
+        word_index: int | None = None,
+        found: str | None = None,
+        expected: tuple[str, ...] = (),
+    ) -> None:
+        super().__init__(message)
+        self.question = question
+        self.template_id = template_id
+        self.paraphrase = paraphrase
+        self.word_index = word_index
+        self.found = found
+        self.expected = expected
