@@ -17,12 +17,14 @@ from .errors import (
     NodeListError,
     ParseError,
     ProgramError,
+    QuestionParseError,
     SideInputError,
     SimulationFileError,
     TypeCheckError,
     UnknownModuleError,
 )
 from .program import Program, parse
+from .question_parsing import QuestionMatch, match_question, question_to_program
 from .recorded import load_simulation, save_simulation
 from .registry import MODULES, REGISTRY
 from .simulation import Event, ObjectState, SimObject, Simulation, Trajectory
@@ -45,6 +47,8 @@ __all__ = [
     "ParseError",
     "Program",
     "ProgramError",
+    "QuestionMatch",
+    "QuestionParseError",
     "SideInputError",
     "SimObject",
     "Simulation",
@@ -54,7 +58,9 @@ __all__ = [
     "UnknownModuleError",
     "WorldSpec",
     "load_simulation",
+    "match_question",
     "parse",
+    "question_to_program",
     "save_simulation",
     "simulate",
 ]
