@@ -82,7 +82,8 @@ def test_parquet_has_the_jsonl_rows(users_dataset: Path) -> None:
 
 
 def load(folder: Path, config: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Any:
-    datasets = pytest.importorskip("datasets", reason="loading needs the datasets library: pip install datasets")
+    datasets = pytest.importorskip("datasets",
+                                   reason="loading needs the datasets library: pip install 'craft-dsl[integration]'")
     monkeypatch.setenv("HF_DATASETS_OFFLINE", "1")
     monkeypatch.setenv("HF_HUB_OFFLINE", "1")
     return datasets.load_dataset(str(folder), config, cache_dir=str(tmp_path / "cache"))
