@@ -60,7 +60,7 @@ def test_click_through_the_viewer(page: tuple[Any, Viewer], tmp_path: Path) -> N
     total = tab.locator("#questions li").count()
     tab.select_option("#f-category", "CF/O")
     tab.wait_for_function("document.querySelectorAll('#videos li').length >= 1")
-    tab.wait_for_function("document.querySelectorAll('#questions li:not(.dim)').length > 0")
+    tab.wait_for_function("document.querySelectorAll('#questions li.dim').length > 0")
     shown = tab.locator("#questions li:not(.dim)")
     assert 0 < shown.count() < total and all("CF/O" in t for t in shown.all_inner_texts())
 

@@ -88,7 +88,10 @@ def make_handler(data: ViewerData, log: Callable[[str], None] | None = None) -> 
             if status == HTTPStatus.PARTIAL_CONTENT:
                 self.send_header("Content-Range", f"bytes {start}-{end - 1}/{len(body)}")
             self.end_headers()
-            self.wfile.write(body[start:end])
+            try:
+                self.wfile.write(body[start:end])
+            except (BrokenPipeError, ConnectionResetError):
+                pass  # the browser dropped the request (e.g. a video element changed its source): nothing to do
 
         def _json(self, status: int, value: Any) -> None:
             self._send(status, json.dumps(value).encode("utf-8"), "application/json")
