@@ -141,3 +141,18 @@ def test_hf_command_in_a_subprocess(users_dataset: Path, tmp_path: Path) -> None
     assert sum(report["counts"]["random"].values()) == len(json.loads((folder / "dataset_minimal.json").read_text()))
     assert (folder / "hf" / "hard" / "validation.jsonl").read_text() == (
         users_dataset / "hf" / "hard" / "validation.jsonl").read_text()
+
+
+def test_empty_parts_are_left_out(users_dataset: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    folder = tmp_path / "copy"
+    shutil.copytree(users_dataset, folder, ignore=shutil.ignore_patterns("videos", "*_frames", "intermediates"))
+    split = json.loads((folder / "split_info_hard.json").read_text())
+    everything = split["train"] + split["validation"] + split["test"]
+    (folder / "split_info_hard.json").write_text(json.dumps({"train": everything, "validation": [], "test": []}))
+    result = hf.write_hf(folder)
+    assert result.counts["hard"] == {"train": len(everything), "validation": 0, "test": 0}
+    assert not list((folder / "hf" / "hard").glob("test.*")) and not list((folder / "hf" / "hard").glob("validation.*"))
+    card = (folder / "README.md").read_text()
+    assert "hf/hard/validation" not in card and "Parts without questions (hard/validation, hard/test)" in card
+    ds = load(folder, "hard", tmp_path, monkeypatch)
+    assert set(ds) == {"train"} and len(ds["train"]) == len(everything)

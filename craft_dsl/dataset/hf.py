@@ -160,6 +160,10 @@ def write_hf(root: str | os.PathLike[str], parquet: bool | None = None, card: bo
             selected = [r for r in all_rows if part_of.get((r["video_index"], r["question_index"])) == part]
             counts[split][part] = len(selected)
             base = folder.root / HF_FOLDER / split / part
+            if not selected:  # an empty part is left out (datasets cannot read an empty Parquet file)
+                for ext in (".jsonl", ".parquet"):
+                    base.with_suffix(ext).unlink(missing_ok=True)
+                continue
             _write_jsonl(selected, base.with_suffix(".jsonl"))
             files.append(f"{HF_FOLDER}/{split}/{part}.jsonl")
             if parquet:
@@ -191,19 +195,22 @@ def _features_yaml(indent: str) -> list[str]:
     return lines
 
 
-def card_yaml(file_format: str) -> str:
-    """The card's YAML front matter (without the ``---`` fences)."""
+def card_yaml(file_format: str, counts: Mapping[str, Mapping[str, int]]) -> str:
+    """The card's YAML front matter (without the ``---`` fences): a config per split with questions, listing
+    its parts with questions."""
     lines = ["license: mit", "task_categories:", "- visual-question-answering", "language:", "- en",
              "pretty_name: CRAFT-style causal video question answering (craft-dsl)", "configs:"]
-    for i, split in enumerate(SPLITS):
+    splits = [s for s in SPLITS if any(counts[s][p] for p in PARTS)]
+    for i, split in enumerate(splits):
         lines.append(f"- config_name: {split}")
         if i == 0:
             lines.append("  default: true")
         lines.append("  data_files:")
         for part in PARTS:
-            lines += [f"  - split: {part}", f"    path: {HF_FOLDER}/{split}/{part}.{file_format}"]
+            if counts[split][part]:
+                lines += [f"  - split: {part}", f"    path: {HF_FOLDER}/{split}/{part}.{file_format}"]
     lines.append("dataset_info:")
-    for split in SPLITS:
+    for split in splits:
         lines += [f"- config_name: {split}", "  features:"]
         lines += _features_yaml("  ")
     return "\n".join(lines) + "\n"
@@ -221,7 +228,7 @@ def card_text(folder: DatasetFolder, counts: Mapping[str, Mapping[str, int]], fi
 
     records = folder.records
     videos = sorted({int(r["video_index"]) for r in records})
-    out = ["---", card_yaml(file_format).rstrip("\n"), "---", "",
+    out = ["---", card_yaml(file_format, counts).rstrip("\n"), "---", "",
            "# CRAFT-style causal video question answering", "",
            "Questions about short 2D physics videos (20 scene layouts), in the formats of the CRAFT dataset "
            "(Ates et al.): descriptive, counterfactual and causal (cause, enable, prevent) questions, each with its "
@@ -238,7 +245,9 @@ def card_text(folder: DatasetFolder, counts: Mapping[str, Mapping[str, int]], fi
            "## Counts", ""]
     out += _md_table(["split", *PARTS, "all"],
                      [[s, *(counts[s][p] for p in PARTS), sum(counts[s].values())] for s in SPLITS])
-    out += ["", f"{len(records)} questions over {len(videos)} videos.", ""]
+    empty = [f"{s}/{p}" for s in SPLITS for p in PARTS if not counts[s][p]]
+    out += ["", f"{len(records)} questions over {len(videos)} videos."
+            + (f" Parts without questions ({', '.join(empty)}) have no data files." if empty else ""), ""]
     if folder.config:
         out += ["## Generation settings", ""]
         out += _md_table(["setting", "value"], [[k, "`" + json.dumps(v) + "`" if k != "templates" else

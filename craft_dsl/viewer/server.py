@@ -13,6 +13,7 @@ Media responses honour single byte ranges, so the browser's player can seek.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import re
 import threading
@@ -88,10 +89,9 @@ def make_handler(data: ViewerData, log: Callable[[str], None] | None = None) -> 
             if status == HTTPStatus.PARTIAL_CONTENT:
                 self.send_header("Content-Range", f"bytes {start}-{end - 1}/{len(body)}")
             self.end_headers()
-            try:
+            # the browser may drop a request (e.g. a video element changed its source): nothing to do then
+            with contextlib.suppress(BrokenPipeError, ConnectionResetError):
                 self.wfile.write(body[start:end])
-            except (BrokenPipeError, ConnectionResetError):
-                pass  # the browser dropped the request (e.g. a video element changed its source): nothing to do
 
         def _json(self, status: int, value: Any) -> None:
             self._send(status, json.dumps(value).encode("utf-8"), "application/json")
