@@ -20,6 +20,7 @@ from .errors import (
     QuestionParseError,
     SideInputError,
     SimulationFileError,
+    TokenError,
     TypeCheckError,
     UnknownModuleError,
 )
@@ -53,6 +54,7 @@ __all__ = [
     "SimObject",
     "Simulation",
     "SimulationFileError",
+    "TokenError",
     "Trajectory",
     "TypeCheckError",
     "UnknownModuleError",

@@ -91,6 +91,8 @@ class _Resolution:
 
 
 _RESOLUTIONS: dict[tuple[str, tuple[DslType, ...]], _Resolution] = {}
+#: ``Node`` built from a field tuple without the NamedTuple constructor's Python-level wrapper (hot path).
+_new_node = tuple.__new__
 
 
 def _resolve_overload(spec: ModuleSpec, types: tuple[DslType, ...]) -> _Resolution | None:
@@ -121,14 +123,12 @@ class ProgramBuilder:
 
     def __init__(self) -> None:
         self.nodes: list[Node] = []
-        self._index: dict[tuple[Any, ...], int] = {}
-        self._unique = resolve_module("Unique", None)
+        self._index: dict[Node, int] = {}
 
     def _add(self, node: Node) -> int:
-        key = (node.module, node.inputs, node.values, node.type)
-        found = self._index.get(key)
+        found = self._index.get(node)
         if found is None:
-            found = self._index[key] = len(self.nodes)
+            found = self._index[node] = len(self.nodes)
             self.nodes.append(node)
         return found
 
@@ -160,8 +160,14 @@ class ProgramBuilder:
         The caller has checked the number of inputs and side inputs.
         """
         nodes = self.nodes
-        types = tuple(nodes[i].type for i in inputs)
-        res = _resolve_overload(spec, types)
+        n = len(inputs)
+        if n == 1:
+            types: tuple[DslType, ...] = (nodes[inputs[0]][3],)
+        elif n == 2:
+            types = (nodes[inputs[0]][3], nodes[inputs[1]][3])
+        else:
+            types = tuple([nodes[i][3] for i in inputs])
+        res = _RESOLUTIONS.get((spec.name, types)) or _resolve_overload(spec, types)
         if res is None:
             raise self._overload_error(spec, types, pos, input_pos)
         if res.wrap:
@@ -170,21 +176,31 @@ class ProgramBuilder:
                 ids[k] = self._add(Node("Unique", (ids[k],), (), _OBJECT))
             inputs = ids
         values: tuple[Value, ...] = ()
-        if spec.side_inputs:
-            n = len(inputs)
+        if sides:
             checked: list[Value] = []
             for k, (value, expected) in enumerate(zip(sides, spec.side_inputs)):
-                at = side_pos[k] if k < len(side_pos) else pos
-                if not isinstance(value, str):
-                    raise TypeCheckError(
-                        f"{spec.name}: argument {n + k + 1} must be a quoted {expected} value such as "
-                        f'"{VOCABULARY[expected][0]}", found an integer',
-                        module=spec.name, argument=n + k + 1, expected=(str(expected),), found="integer",
-                        **where(at),
-                    )
-                checked.append(canonical_value(value, expected, spec.name, n + k + 1, at))
+                found = _VALUES[expected].get(value) if isinstance(value, str) else None
+                if found is None:
+                    found = self._side_value(spec, len(inputs) + k + 1, value, expected,
+                                             side_pos[k] if k < len(side_pos) else pos)
+                checked.append(found)
             values = tuple(checked)
-        return self._add(Node(spec.name, tuple(inputs), values, res.output, res.overload))
+        node = _new_node(Node, (spec.name, tuple(inputs), values, res.output, res.overload))
+        found_id = self._index.get(node)
+        if found_id is None:
+            found_id = self._index[node] = len(nodes)
+            nodes.append(node)
+        return found_id
+
+    @staticmethod
+    def _side_value(spec: ModuleSpec, argument: int, value: Value, expected: DslType, pos: Where) -> str:
+        if not isinstance(value, str):
+            raise TypeCheckError(
+                f"{spec.name}: argument {argument} must be a quoted {expected} value such as "
+                f'"{VOCABULARY[expected][0]}", found an integer',
+                module=spec.name, argument=argument, expected=(str(expected),), found="integer", **where(pos),
+            )
+        return canonical_value(value, expected, spec.name, argument, pos)
 
     def _overload_error(self, spec: ModuleSpec, types: tuple[DslType, ...], pos: Where,
                         input_pos: Sequence[Where]) -> TypeCheckError:
@@ -204,24 +220,61 @@ class ProgramBuilder:
             module=spec.name, found=", ".join(str(t) for t in types), **where(pos),
         )
 
-    def finish(self, root: int) -> tuple[tuple[Node, ...], list[int]]:
-        """The canonical nodes of the program whose answer is node ``root``, and old -> new indexes."""
-        return canonical_order(self.nodes, root)
+    def finish(self, root: int, sources: Sequence[int] = (), tree: Tree | None = None,
+               binding_types: dict[str, DslType] | None = None) -> CheckedProgram:
+        """The checked program whose answer is node ``root`` (``sources``: the node of each source call)."""
+        return CheckedProgram(self.nodes, root, tree, binding_types or {}, tuple(sources))
 
 
-@dataclass(frozen=True)
 class CheckedProgram:
-    """A checked program: canonical nodes, and what the source form needs to be shown again.
+    """A checked program, and what its source form needs to be shown again.
 
-    ``tree`` is the checked syntax tree (canonical names and values, explicit Unique) for text programs, None
-    for programs read from other forms. ``source_nodes[k]`` is the node of the k-th call of the source (in
-    reading order for text), or None where that call is unused.
+    ``raw`` holds the nodes in the order they were checked (a dependency order; nodes the answer does not
+    need may be among them) and ``root`` is the answer's node: enough to run the program. The canonical
+    :attr:`nodes` (see :mod:`craft_dsl.ir`) are computed when first asked for. ``tree`` is the checked syntax
+    tree (canonical names and values, explicit Unique) for text programs, None for other forms.
     """
 
-    nodes: tuple[Node, ...]
-    tree: Tree | None
-    binding_types: dict[str, DslType]
-    source_nodes: tuple[int | None, ...]
+    __slots__ = ("raw", "root", "tree", "binding_types", "raw_sources", "_canonical")
+
+    def __init__(self, raw: Sequence[Node], root: int, tree: Tree | None, binding_types: dict[str, DslType],
+                 raw_sources: tuple[int, ...]) -> None:
+        self.raw = raw
+        self.root = root
+        self.tree = tree
+        self.binding_types = binding_types
+        self.raw_sources = raw_sources
+        self._canonical: tuple[tuple[Node, ...], list[int]] | None = None
+
+    def _canonical_form(self) -> tuple[tuple[Node, ...], list[int]]:
+        if self._canonical is None:
+            self._canonical = canonical_order(self.raw, self.root)
+        return self._canonical
+
+    @property
+    def type(self) -> DslType:
+        return self.raw[self.root].type
+
+    @property
+    def nodes(self) -> tuple[Node, ...]:
+        """The canonical nodes (the last one is the answer)."""
+        return self._canonical_form()[0]
+
+    @property
+    def order(self) -> list[int]:
+        """The raw index of every canonical node."""
+        nodes, new_index = self._canonical_form()
+        out = [0] * len(nodes)
+        for raw_index, k in enumerate(new_index):
+            if k >= 0:
+                out[k] = raw_index
+        return out
+
+    @property
+    def source_nodes(self) -> tuple[int | None, ...]:
+        """For the k-th call of the source form, its canonical node (None where the answer does not need it)."""
+        new_index = self._canonical_form()[1]
+        return tuple([new_index[i] if new_index[i] >= 0 else None for i in self.raw_sources])
 
 
 class _Frame:
@@ -250,9 +303,7 @@ def check_tree(tree: Tree) -> CheckedProgram:
         env[b.name] = (nid, builder.nodes[nid].type)
         bindings.append(Binding(b.name, expr, b.pos))
     root, body = _check_expr(builder, tree.body, env, sources)
-    nodes, new_index = builder.finish(root)
-    source_nodes = tuple(new_index[i] if new_index[i] >= 0 else None for i in sources)
-    return CheckedProgram(nodes, Tree(tuple(bindings), body), {k: t for k, (_, t) in env.items()}, source_nodes)
+    return builder.finish(root, sources, Tree(tuple(bindings), body), {k: t for k, (_, t) in env.items()})
 
 
 def _ref(env: dict[str, tuple[int, DslType]], ref: Ref) -> int:

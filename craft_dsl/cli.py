@@ -152,7 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     mods.set_defaults(func=cmd_modules)
 
     for name in ("craft_dsl.demo", "craft_dsl.physics.cli", "craft_dsl.render.cli", "craft_dsl.verify_cli",
-                 "craft_dsl.dataset.cli", "craft_dsl.ask_cli", "craft_dsl.dataset.hf_cli",
+                 "craft_dsl.dataset.cli", "craft_dsl.oracle.cli", "craft_dsl.ask_cli", "craft_dsl.dataset.hf_cli",
                  "craft_dsl.dataset.stats_cli", "craft_dsl.viewer.cli"):
         try:
             module = importlib.import_module(name)

@@ -14,8 +14,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from .ir import Node, node_texts
-from .registry import REGISTRY, Impl
+from .ir import Node
+from .registry import IMPLS, MAY_INVALIDATE, REGISTRY, Impl
 from .simulation import Simulation
 from .types import INVALID, DslType
 
@@ -54,27 +54,49 @@ class TraceEntry:
 
 
 class Plan:
-    """A compiled program: constant slots, then one instruction per module node in dependency order.
+    """A compiled program: constant slots, then one instruction per needed module node in dependency order.
 
-    Every node of a checked program is needed by the answer, and every module returns INVALID when it receives
-    INVALID, so the answer is INVALID as soon as any node is: :meth:`run` stops there.
+    Built from checked nodes in any dependency order and the answer's node ``root``; nodes the answer does not
+    need are skipped. A node that receives INVALID is INVALID without being called (so which nodes run does
+    not depend on the order the nodes were written in); the inputs are tested only where INVALID can arrive.
+
+    Execution is tiered, because a program scored once must be cheap and a program run often must be fast:
+    the first run interprets the nodes, later runs use one specialised instruction per node, and from
+    :data:`COMPILE_AFTER_RUNS` runs on the program is one generated Python function.
     """
 
-    __slots__ = ("nodes", "constants", "steps", "result_type", "runs", "_fast")
+    __slots__ = ("nodes", "root", "constants", "order", "steps", "result_type", "runs", "_fast")
 
-    def __init__(self, nodes: Sequence[Node]) -> None:
+    def __init__(self, nodes: Sequence[Node], root: int | None = None) -> None:
+        root = len(nodes) - 1 if root is None else root
         self.nodes = nodes
+        self.root = root
+        needed = [False] * len(nodes)
+        needed[root] = True
+        for i in range(root, -1, -1):
+            if needed[i]:
+                for j in nodes[i].inputs:
+                    needed[j] = True
         constants: list[Any] = [None] * len(nodes)
-        steps: list[tuple[Thunk, int, bool]] = []
-        for i, node in enumerate(nodes):
+        order: list[tuple[int, tuple[int, ...]]] = []
+        may_invalid = [False] * len(nodes)
+        for i in range(root + 1):
+            if not needed[i]:
+                continue
+            node = nodes[i]
             if node.module is None:
                 constants[i] = node.values[0]
                 continue
-            spec = REGISTRY[node.module]
-            steps.append((_thunk(spec.impl, node.inputs, node.values), i, spec.may_invalidate))
+            check: tuple[int, ...] = ()
+            for j in node.inputs:
+                if may_invalid[j]:
+                    check += (j,)
+            may_invalid[i] = bool(check) or node.module in MAY_INVALIDATE
+            order.append((i, check))
         self.constants = constants
-        self.steps = tuple(steps)
-        self.result_type = nodes[-1].type
+        self.order = order
+        self.steps: tuple[tuple[Thunk, int, tuple[int, ...]], ...] | None = None
+        self.result_type = nodes[root].type
         self.runs = 0
         self._fast: Callable[[Simulation], Any] | None = None
 
@@ -82,51 +104,87 @@ class Plan:
         if self._fast is not None:
             return self._fast(sim)
         self.runs += 1
+        if self.runs == 1:
+            return self._interpret(sim)
         if self.runs >= COMPILE_AFTER_RUNS:
             self._fast = self.compile()
+        steps = self.steps
+        if steps is None:
+            nodes = self.nodes
+            steps = self.steps = tuple([
+                (_thunk(IMPLS[nodes[i].module], nodes[i].inputs, nodes[i].values), i, check)  # type: ignore[index]
+                for i, check in self.order])
         slots = self.constants[:]
-        value = None
-        for fn, out, may_invalidate in self.steps:
-            value = fn(sim, slots)
-            if may_invalidate and value is INVALID:
-                return INVALID
-            slots[out] = value
-        return value
+        for fn, out, check in steps:
+            if check:
+                for i in check:
+                    if slots[i] is INVALID:
+                        slots[out] = INVALID
+                        break
+                else:
+                    slots[out] = fn(sim, slots)
+            else:
+                slots[out] = fn(sim, slots)
+        return slots[self.root]
+
+    def _interpret(self, sim: Simulation) -> Any:
+        """One run without building instructions (the cheapest way to run a program once)."""
+        slots = self.constants[:]
+        nodes = self.nodes
+        for out, check in self.order:
+            if check:
+                for i in check:
+                    if slots[i] is INVALID:
+                        break
+                else:
+                    check = ()
+                if check:
+                    slots[out] = INVALID
+                    continue
+            node = nodes[out]
+            impl = IMPLS[node[0]]  # type: ignore[index]
+            inputs = node[1]
+            if not inputs:
+                slots[out] = impl(sim, *node[2])
+            elif len(inputs) == 1:
+                slots[out] = impl(sim, slots[inputs[0]], *node[2])
+            else:
+                slots[out] = impl(sim, *[slots[i] for i in inputs], *node[2])
+        return slots[self.root]
 
     def compile(self) -> Callable[[Simulation], Any]:
         """The program as one Python function (no per-node dispatch); costs about as much as a few hundred
         runs of the plan, so :meth:`run` switches to it only for programs run often."""
         names: dict[str, Any] = {"INVALID": INVALID}
         lines = ["def run(sim):"]
-        for i, node in enumerate(self.nodes):
-            if node.module is None:
-                names[f"c{i}"] = node.values[0]
-                continue
-            spec = REGISTRY[node.module]
+        for i, check in self.order:
+            node = self.nodes[i]
+            spec = REGISTRY[node.module]  # type: ignore[index]
             names[f"f{i}"] = spec.impl
             args = ["sim", *(f"c{j}" if self.nodes[j].module is None else f"s{j}" for j in node.inputs)]
+            names.update({f"c{j}": self.nodes[j].values[0] for j in node.inputs if self.nodes[j].module is None})
             for k, value in enumerate(node.values):
                 names[f"v{i}_{k}"] = value
                 args.append(f"v{i}_{k}")
-            lines.append(f"    s{i} = f{i}({', '.join(args)})")
-            if spec.may_invalidate:
-                lines.append(f"    if s{i} is INVALID: return INVALID")
-        lines.append(f"    return s{len(self.nodes) - 1}")
+            call = f"f{i}({', '.join(args)})"
+            if check:
+                invalid = " or ".join(f"s{j} is INVALID" for j in check)
+                lines.append(f"    s{i} = INVALID if {invalid} else {call}")
+            else:
+                lines.append(f"    s{i} = {call}")
+        lines.append(f"    return s{self.root}" if self.nodes[self.root].module else f"    return c{self.root}")
+        names[f"c{self.root}"] = self.constants[self.root]
         namespace: dict[str, Any] = {}
         exec(compile("\n".join(lines), "<craft_dsl plan>", "exec"), names, namespace)
         fn: Callable[[Simulation], Any] = namespace["run"]
         return fn
 
     def values(self, sim: Simulation) -> list[Any]:
-        """The value of every node (literals included), in node order; nodes after an INVALID input are INVALID."""
+        """The value of every node (None for nodes the answer does not need), in node order; nodes with an
+        INVALID input are INVALID."""
         slots = self.constants[:]
-        for fn, out, _may in self.steps:
-            node = self.nodes[out]
-            slots[out] = INVALID if any(slots[i] is INVALID for i in node.inputs) else fn(sim, slots)
+        for out, _check in self.order:
+            module, inputs, values = self.nodes[out][:3]
+            slots[out] = INVALID if any(slots[i] is INVALID for i in inputs) else \
+                IMPLS[module](sim, *[slots[i] for i in inputs], *values)  # type: ignore[index]
         return slots
-
-    def trace(self, sim: Simulation) -> list[TraceEntry]:
-        values = self.values(sim)
-        texts = node_texts(self.nodes)
-        return [TraceEntry(i, texts[i], node.type, values[i])
-                for i, node in enumerate(self.nodes) if node.module is not None]

@@ -37,24 +37,35 @@ def canonical_order(nodes: Sequence[Node], root: int) -> tuple[tuple[Node, ...],
     """Renumber ``nodes`` (any dependency order, possibly with unused nodes) canonically from ``root``.
 
     Returns the canonical node tuple and ``new_index`` (old index -> new index, -1 for dropped nodes).
-    Iterative, so programs of any depth are fine.
+    Iterative, so programs of any depth are fine; nodes already in canonical order are returned as they are.
     """
     new_index = [-1] * len(nodes)
-    out: list[Node] = []
-    stack: list[tuple[int, int]] = [(root, 0)]
+    order: list[int] = []
+    stack = [root]
     while stack:
-        i, k = stack.pop()
-        node = nodes[i]
-        if k < len(node.inputs):
-            stack.append((i, k + 1))
-            child = node.inputs[k]
+        i = stack[-1]
+        if new_index[i] >= 0:
+            stack.pop()
+            continue
+        for child in nodes[i].inputs:
             if new_index[child] < 0:
-                stack.append((child, 0))
-            continue
-        if new_index[i] >= 0:  # reached twice before completing (shared child on the stack twice)
-            continue
-        new_index[i] = len(out)
-        out.append(node._replace(inputs=tuple(new_index[j] for j in node.inputs)) if node.inputs else node)
+                # Children are visited left to right: push them reversed, revisit the parent afterwards.
+                stack.extend(reversed([c for c in nodes[i].inputs if new_index[c] < 0]))
+                break
+        else:
+            stack.pop()
+            new_index[i] = len(order)
+            order.append(i)
+    if len(order) == len(nodes) and order[-1] == len(nodes) - 1 and all(
+            i == k for k, i in enumerate(order)):
+        return tuple(nodes), new_index
+    out = []
+    for i in order:
+        node = nodes[i]
+        if node.inputs:
+            node = Node(node.module, tuple([new_index[j] for j in node.inputs]), node.values, node.type,
+                        node.overload)
+        out.append(node)
     return tuple(out), new_index
 
 

@@ -10,7 +10,7 @@ Errors name the node (``node 3``) as well as what is wrong.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, NoReturn
 
 from .checker import CheckedProgram, ProgramBuilder, arity_error, resolve_module
 from .errors import NodeListError, ProgramError
@@ -48,52 +48,71 @@ def check_nodes(nodes: Sequence[Mapping[str, Any]], params: Mapping[str, str] | 
     if not isinstance(nodes, Sequence) or isinstance(nodes, (str, bytes)) or not nodes:
         raise NodeListError("a node list must be a non-empty list of nodes")
     builder = ProgramBuilder()
+    call = builder.call
+    spec_of = NAMES.get
     built: list[int] = []
     for k, node in enumerate(nodes):
         try:
             name = node["type"]
             inputs = node.get("inputs", _EMPTY)
+            spec = spec_of(name)
         except (TypeError, KeyError, AttributeError):
             raise NodeListError(f"must be an object with a 'type' field, found {node!r}",
                                 location=f"node {k}", index=k) from None
-        spec = NAMES.get(name) if isinstance(name, str) else None
         if spec is None:
-            if not isinstance(name, str):
-                raise NodeListError(f"'type' must be a string, found {name!r}", location=f"node {k}", index=k)
-            try:
-                resolve_module(name, ("node", k))
-            except ProgramError as err:
-                raise NodeListError(err.message, location=f"node {k}", index=k) from None
-            raise AssertionError("resolve_module returned for an unknown name")  # pragma: no cover
+            _unknown_module(name, k)
+        args = []
         try:
-            args = [built[i] for i in inputs]
-            ok = all(type(i) is int and 0 <= i < k for i in inputs)
-        except (TypeError, IndexError):
-            ok = False
-        if not ok:
-            if not isinstance(inputs, (list, tuple)) or not all(type(i) is int for i in inputs):
-                raise NodeListError(f"{name}: 'inputs' must be a list of node indexes, found {inputs!r}",
-                                    location=f"node {k}", index=k)
-            bad = next(i for i in inputs if not 0 <= i < k)
-            raise NodeListError(f"{name}: input {bad} does not name an earlier node (allowed 0..{k - 1})",
-                                location=f"node {k}", index=k)
-        n_inputs = len(spec.overloads[0].inputs)
-        if len(args) != n_inputs:
-            raise NodeListError(f"{name}: {spec.name} takes {n_inputs} input node(s), found {len(args)}",
+            for i in inputs:
+                if type(i) is not int or not 0 <= i < k:
+                    _bad_inputs(name, inputs, k)
+                args.append(built[i])
+        except TypeError:
+            _bad_inputs(name, inputs, k)
+        if len(args) != spec.n_inputs:
+            raise NodeListError(f"{name}: {spec.name} takes {spec.n_inputs} input node(s), found {len(args)}",
                                 location=f"node {k}", index=k)
         if spec.original_order is not None and name != spec.name:
-            reordered = list(args)
-            for original_pos, ours in enumerate(spec.original_order):
-                reordered[ours] = args[original_pos]
-            args = reordered
-        sides = _side_values(node, k, params) if spec.side_inputs or node.get("side_inputs") or \
-            node.get("value_inputs") else []
-        if len(sides) != len(spec.side_inputs):
-            raise arity_error(spec, n_inputs + len(sides), ("node", k))
-        built.append(builder.call(spec, args, sides, ("node", k)))
-    nodes_out, new_index = builder.finish(built[-1])
-    source = tuple(new_index[i] if new_index[i] >= 0 else None for i in built)
-    return CheckedProgram(nodes_out, None, {}, source)
+            args = [args[j] for j in _inverse(spec.original_order)]
+        if spec.side_inputs:
+            sides = node.get("value_inputs") or node.get("side_inputs") or _EMPTY
+        else:
+            sides = node.get("value_inputs") or node.get("side_inputs") or _EMPTY if len(node) > 2 else _EMPTY
+        if sides or spec.side_inputs:
+            if params is not None or type(sides) is not list or not all([type(v) is str and v[:1] != "<"
+                                                                             for v in sides]):
+                sides = _side_values(node, k, params)
+            if len(sides) != len(spec.side_inputs):
+                raise arity_error(spec, len(args) + len(sides), ("node", k))
+        built.append(call(spec, args, sides, ("node", k)))
+    return builder.finish(built[-1], built)
+
+
+def _inverse(order: tuple[int, ...]) -> tuple[int, ...]:
+    """Original positions -> ours: ``ours[order[p]] = original[p]``."""
+    out = [0] * len(order)
+    for original_pos, ours in enumerate(order):
+        out[ours] = original_pos
+    return tuple(out)
+
+
+def _unknown_module(name: Any, k: int) -> NoReturn:
+    if not isinstance(name, str):
+        raise NodeListError(f"'type' must be a string, found {name!r}", location=f"node {k}", index=k)
+    try:
+        resolve_module(name, ("node", k))
+    except ProgramError as err:
+        raise NodeListError(err.message, location=f"node {k}", index=k) from None
+    raise AssertionError("resolve_module accepted an unknown name")  # pragma: no cover
+
+
+def _bad_inputs(name: Any, inputs: Any, k: int) -> NoReturn:
+    if not isinstance(inputs, (list, tuple)) or not all(type(i) is int for i in inputs):
+        raise NodeListError(f"{name}: 'inputs' must be a list of node indexes, found {inputs!r}",
+                            location=f"node {k}", index=k)
+    bad = next(i for i in inputs if not 0 <= i < k)
+    raise NodeListError(f"{name}: input {bad} does not name an earlier node (allowed 0..{k - 1})",
+                        location=f"node {k}", index=k)
 
 
 def nodes_from_checked(nodes: Sequence[Node]) -> list[dict[str, Any]]:

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 from .checker import CheckedProgram, check_tree
 from .evaluator import Plan, TraceEntry
 from .ir import Node, node_texts, to_exprs
-from .parser import parse_tree
+from .parser import check_text
 from .simulation import Event, Simulation
 from .syntax import Tree, format_expr, format_tree
 from .types import INVALID, INVALID_JSON, DslType
@@ -34,8 +34,8 @@ class Program:
 
     def _init(self, checked: CheckedProgram) -> None:
         self._checked = checked
-        self._plan = Plan(checked.nodes)
-        self.type: DslType = checked.nodes[-1].type
+        self._plan = Plan(checked.raw, checked.root)
+        self.type: DslType = checked.type
         self._nodes: tuple[tuple[dict[str, Any], str, int], ...] | None = None
         self._signature: tuple[str, ...] | None = None
 
@@ -50,7 +50,7 @@ class Program:
     @classmethod
     def parse(cls, text: str) -> Program:
         """Parse and type-check the text form (see docs/language.md)."""
-        return cls._from_checked(check_tree(parse_tree(text)))
+        return cls._from_checked(check_text(text))
 
     @classmethod
     def from_nodes(cls, nodes: Sequence[Mapping[str, Any]], params: Mapping[str, str] | None = None) -> Program:
@@ -108,7 +108,7 @@ class Program:
 
             self._nodes = tuple((node, node.pop("_text"), node.pop("_node"))
                                 for node in nodes_from_checked(self._checked.nodes))
-        values = self._plan.values(outputs) if outputs is not None else None
+        values = self.values(outputs) if outputs is not None else None
         out = []
         for node, _text, index in self._nodes:
             copy = {**node, "inputs": list(node["inputs"]), "value_inputs": list(node["value_inputs"])}
@@ -132,11 +132,15 @@ class Program:
 
     def values(self, sim: Simulation) -> list[Any]:
         """The value of every node of :attr:`nodes` over ``sim`` (literals included)."""
-        return self._plan.values(sim)
+        raw = self._plan.values(sim)
+        return [raw[i] for i in self._checked.order]
 
     def trace(self, sim: Simulation) -> list[TraceEntry]:
         """Every module node's value, in evaluation order (shared sub-expressions appear once)."""
-        return self._plan.trace(sim)
+        nodes = self._checked.nodes
+        values = self.values(sim)
+        texts = node_texts(nodes)
+        return [TraceEntry(i, texts[i], node.type, values[i]) for i, node in enumerate(nodes) if node.module]
 
     # -- identity -------------------------------------------------------------------------------------
 
@@ -161,6 +165,12 @@ class Program:
 
     def __hash__(self) -> int:
         return hash(self._checked.nodes)
+
+    def __getstate__(self) -> CheckedProgram:
+        return self._checked
+
+    def __setstate__(self, checked: CheckedProgram) -> None:
+        self._init(checked)
 
 
 def parse(text: str) -> Program:

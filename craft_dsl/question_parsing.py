@@ -316,6 +316,17 @@ def _automaton() -> _Automaton:
     return automaton
 
 
+def question_words() -> list[str]:
+    """Every word a question can contain (lower case; the words of every paraphrase, synonym and value word),
+    sorted: the closed question vocabulary of CRAFT."""
+    return sorted({word for row in _automaton().transitions for word in row})
+
+
+def question_tokens(text: str) -> list[str]:
+    """A question's tokens for a vocabulary: lower-cased words, with each punctuation mark a token of its own."""
+    return _WORD.findall(text.lower())
+
+
 def shared_texts(table: Mapping[str, Sequence[str]] | None = None) -> list[tuple[tuple[str, int], ...]]:
     """Groups of (template id, paraphrase index) that can produce one and the same question text.
 

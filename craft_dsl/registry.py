@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from . import semantics as sem
@@ -43,6 +43,11 @@ class ModuleSpec:
     original_order: tuple[int, ...] | None = None
     #: Whether the module can return INVALID on valid inputs (Unique of a set whose size is not 1, ...).
     may_invalidate: bool = False
+    #: Number of inputs (side inputs not counted); derived from the overloads.
+    n_inputs: int = field(init=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "n_inputs", len(self.overloads[0].inputs))
 
     @property
     def arity(self) -> int:
@@ -181,6 +186,10 @@ MODULES: tuple[ModuleSpec, ...] = (
 
 #: Canonical name -> spec.
 REGISTRY: dict[str, ModuleSpec] = {m.name: m for m in MODULES}
+#: Canonical name -> implementation (the evaluator's hot path).
+IMPLS: dict[str, Impl] = {m.name: m.impl for m in MODULES}
+#: Canonical names of the modules that can return INVALID on valid inputs.
+MAY_INVALIDATE: frozenset[str] = frozenset(m.name for m in MODULES if m.may_invalidate)
 #: Any accepted name (canonical or alias) -> spec.
 NAMES: dict[str, ModuleSpec] = {**{a: m for m in MODULES for a in m.aliases}, **REGISTRY}
 

@@ -204,6 +204,9 @@ def check_tokens(tokens: Sequence[str] | str, order: TokenOrder = "prefix") -> C
     words = _split(tokens)
     if not words:
         raise TokenError("the token sequence is empty: a program needs at least one module token")
+    fast = _fast_read(words, order == "prefix")
+    if fast is not None:
+        return fast
     builder = ProgramBuilder()
     sources: list[int] = []
     toks = (_Token(k, w) for k, w in enumerate(words))
@@ -211,8 +214,7 @@ def check_tokens(tokens: Sequence[str] | str, order: TokenOrder = "prefix") -> C
         _read_postfix(builder, toks, sources)
     if builder.nodes[root].module is None:
         raise TokenError("a program must contain a module; a lone value is not a program")
-    nodes, new_index = builder.finish(root)
-    return CheckedProgram(nodes, None, {}, tuple(new_index[i] if new_index[i] >= 0 else None for i in sources))
+    return builder.finish(root, sources)
 
 
 def _read_prefix(builder: ProgramBuilder, toks: Iterator[_Token], sources: list[int], n: int) -> int:
@@ -280,6 +282,115 @@ def _read_postfix(builder: ProgramBuilder, toks: Iterator[_Token], sources: list
     root = items[0][1]
     assert root is not None
     return root
+
+
+# -- the fast path -------------------------------------------------------------------------------------------
+#
+# Well-formed sequences of exact token spellings (what models emit) are read with one table lookup per token;
+# anything else (integers, other spellings, every error) goes through the readers above, which decide and word
+# the errors. The tests check both ways give the same programs.
+
+_Kind = tuple[ModuleSpec, bool, tuple[str, ...] | None] | str
+_KINDS: dict[str, _Kind] = {}
+
+
+def _kinds() -> dict[str, _Kind]:
+    if not _KINDS:
+        for name, spec in NAMES.items():
+            reorder = name != spec.name and spec.original_order is not None
+            _KINDS[name] = (spec, reorder, None)
+            if spec.side_inputs:
+                (side,) = spec.side_inputs
+                for value in VOCABULARY[side]:
+                    _KINDS[f"{name}[{value}]"] = (spec, reorder, (value,))
+        for words in VOCABULARY.values():
+            _KINDS.update({w: w for w in words})
+    return _KINDS
+
+
+def _fast_read(words: list[str], prefix: bool) -> CheckedProgram | None:
+    kinds = _KINDS or _kinds()
+    builder = ProgramBuilder()
+    sources: list[int] = []
+    frames: list[list[Any]] = []  # open calls (prefix order), see _open
+    items: list[int | str] = []  # finished operands: node indexes or values
+    try:
+        for word in words:
+            kind = kinds.get(word)
+            if kind is None:
+                return None
+            if isinstance(kind, str):
+                if not prefix:
+                    items.append(kind)
+                    continue
+                if not frames or not _give(builder, frames[-1], kind):
+                    return None
+            else:
+                sources.append(-1)
+                frame = _open(kind, len(sources) - 1)
+                if prefix:
+                    frames.append(frame)
+                else:
+                    n_args = frame[5]
+                    if len(items) < n_args:
+                        return None
+                    for arg in items[len(items) - n_args:]:
+                        if not _give(builder, frame, arg):
+                            return None
+                    del items[len(items) - n_args:]
+                    items.append(_build(builder, frame, sources))
+                    continue
+            while frames and frames[-1][6] == frames[-1][5]:
+                node = _build(builder, frames.pop(), sources)
+                if not frames:
+                    items.append(node)
+                elif not _give(builder, frames[-1], node):
+                    return None
+        if frames or len(items) != 1 or not isinstance(items[0], int):
+            return None
+        return builder.finish(items[0], sources)
+    except ProgramError:
+        return None
+
+
+def _open(kind: tuple[ModuleSpec, bool, tuple[str, ...] | None], source: int) -> list[Any]:
+    """An open call: [spec, reorder, input nodes, side values, source index, arguments expected, received]."""
+    spec, reorder, fused = kind
+    n_args = spec.n_inputs + (0 if fused else len(spec.side_inputs))
+    return [spec, reorder, [], list(fused) if fused else [], source, n_args, 0]
+
+
+def _give(builder: ProgramBuilder, frame: list[Any], arg: int | str) -> bool:
+    """Add an argument to an open call; False where it does not fit (the full reader words the error)."""
+    spec, k, n_args = frame[0], frame[6], frame[5]
+    if k >= n_args:
+        return False
+    if k < spec.n_inputs:
+        frame[2].append(arg if isinstance(arg, int) else builder.input_literal(spec, k, arg, None))
+    elif isinstance(arg, int):
+        return False
+    else:
+        frame[3].append(arg)
+    frame[6] = k + 1
+    return True
+
+
+def _build(builder: ProgramBuilder, frame: list[Any], sources: list[int]) -> int:
+    spec, reorder, ids, sides, source = frame[:5]
+    if reorder:
+        ids = [ids[j] for j in _ORIGINAL_TO_OURS[spec.name]]
+    node = builder.call(spec, ids, sides)
+    sources[source] = node
+    return node
+
+
+_ORIGINAL_TO_OURS: dict[str, list[int]] = {}
+for _spec in MODULES:
+    if _spec.original_order is not None:
+        _inverse = [0] * len(_spec.original_order)
+        for _original_pos, _ours in enumerate(_spec.original_order):
+            _inverse[_ours] = _original_pos
+        _ORIGINAL_TO_OURS[_spec.name] = _inverse
 
 
 # -- vocabularies -------------------------------------------------------------------------------------------
