@@ -25,6 +25,7 @@ from craft_dsl import (
     Program,
     Simulation,
     WorldSpec,
+    question_to_program,
 )
 from craft_dsl.dataset.synonyms import SYNONYMS
 from craft_dsl.recorded import load_simulation, simulation_dict
@@ -377,6 +378,13 @@ def test_questions_are_generator_texts_of_their_programs(q: QuestionRecord) -> N
     assert all(value in vocab[ph[1]] for ph, value in q.params.items())
     assert q.program == template.program(q.params)
     assert any(rendering_pattern(p, q.params).fullmatch(q.text) for p in paraphrases()[q.template_id]), q.text
+
+
+@settings(max_examples=200, deadline=None)
+@given(questions())
+def test_question_texts_read_back_to_their_programs(q: QuestionRecord) -> None:
+    """craft_dsl.question_to_program inverts every text questions() draws (any template, paraphrase, synonym)."""
+    assert question_to_program(q.text) == q.program, q.text
 
 
 def test_questions_draw_paraphrases_and_synonyms() -> None:
