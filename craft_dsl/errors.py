@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 
 class CraftError(Exception):
     """Base class of every craft_dsl error."""
@@ -48,3 +51,14 @@ class CounterfactualUnavailable(CraftError):
 
 class EvaluationError(CraftError):
     """A program asked for something the simulation does not have (e.g. a state index out of range)."""
+
+
+class PerceptionError(CraftError):
+    """A perceived scene is malformed or cannot be executed; the message names the object, frame and field.
+
+    ``problems`` lists every defect found (each with ``object``, ``frame``, ``field`` and ``message``).
+    """
+
+    def __init__(self, message: str, problems: Sequence[Any] = ()) -> None:
+        super().__init__(message)
+        self.problems: list[Any] = list(problems)

@@ -1,0 +1,453 @@
+"""The perceived scene as a physics world: bodies from the most likely reading, the initial state fitted to the
+tracks, the factual run re-simulated and its drift from the tracks measured.
+
+Bodies. Static elements are placed at their pose (walls and ground, which never move in any CRAFT scene, at
+their fixed place when the model gives no pose; a wall or ground the model did not list is added with a fresh id).
+Dynamic bodies get the geometry of their most likely shape and size. Objects whose shape or size is unknown, or
+that have neither pose nor track, are left out of the physics (listed in :attr:`PhysicsWorld.left_out`). Bodies
+are created in the original order (walls, ground, basket, other statics, dynamic bodies; by descending id within a
+group), which is the simulator's own order for a scene exported from it.
+
+Initial state (row 0, never shown in a video). The state at the first frame (row 1) is taken from the track:
+position and angle, and the velocities (the track's, or estimated by :mod:`craft_dsl.perception.tracks`). Row 0
+is then fitted by shooting: the world is stepped one frame from a guess, and the guess is corrected by the
+difference between the stepped and the perceived row-1 state, until it agrees to 1e-12 (at most
+:data:`SHOOTING_ITERATIONS` rounds; contacts and overlap push-out in the first frame are handled by the engine
+itself). When the scene layout is known, every dynamic body starts at angle pi without spin, as in every CRAFT
+layout. :func:`refine_start` can further adjust the initial velocities to minimise the drift over the first
+second (Gauss-Newton with finite differences), for noisy tracks.
+
+Drift: per object, the distance in video pixels between the re-simulated and the perceived positions, at every
+row the track covers.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..physics.engine import PhysicsEngine, RawRun
+from ..world import (
+    INITIAL_ANGLE,
+    BodySpec,
+    WorldSpec,
+    dynamic_geometry,
+    make_static,
+)
+from .coords import to_metres
+from .events import RowStates
+from .reading import ObjectReading, is_static_shape
+from .schema import PerceivedScene
+from .tracks import Motion, window_for
+
+#: Rounds of the initial-state shooting.
+SHOOTING_ITERATIONS = 8
+#: Misfit (square metres, summed over the fitted rows) within which a simpler initial-velocity hypothesis is as
+#: good as the best one.
+MISFIT_MARGIN = 1e-9
+#: Finite-difference steps of the state components (x, y, angle, vx, vy, spin).
+_FD_STEP = {0: 1e-6, 1: 1e-6, 2: 1e-7, 3: 1e-5, 4: 1e-5, 5: 1e-6}
+#: Shooting stops when the row-1 state agrees to this (metres, radians, m/s, rad/s).
+SHOOTING_TOLERANCE = 1e-12
+_FIXED_STATICS = ("wall_l", "wall_r", "ground")
+_ORDER = {"wall_l": 0, "wall_r": 1, "ground": 2, "basket": 3}
+
+
+@dataclass(frozen=True)
+class PhysicsWorld:
+    """The bodies of a perceived scene (row-0 state fitted), and what could not be put in it."""
+
+    world: WorldSpec
+    left_out: dict[int, str] = field(default_factory=dict)
+    added: dict[int, str] = field(default_factory=dict)
+
+    @property
+    def columns(self) -> dict[int, int]:
+        return {b.uid: i for i, b in enumerate(self.world.bodies)}
+
+
+@dataclass(frozen=True)
+class Drift:
+    """How far a re-simulated body strays from its perceived track (video pixels)."""
+
+    mean_px: float
+    max_px: float
+    final_px: float
+    first_step_over_1px: int | None
+
+
+def _order_key(spec: BodySpec) -> tuple[int, int]:
+    group = _ORDER.get(spec.shape, 5 if spec.dynamic else 4)
+    return group, -spec.uid
+
+
+def build_world(scene: PerceivedScene, objects: Sequence[ObjectReading], motions: Mapping[int, Motion]
+                ) -> PhysicsWorld:
+    """Bodies at the row-0 guess of the tracks (not yet fitted; see :func:`fit_start`)."""
+    size = scene.video.width
+    perceived = {o.id: o for o in scene.objects}
+    bodies: list[BodySpec] = []
+    left_out: dict[int, str] = {}
+    for reading in objects:
+        obj = perceived[reading.id]
+        motion = motions.get(reading.id)
+        if not reading.dynamic:
+            if not is_static_shape(reading.shape):
+                left_out[reading.id] = f"static object of shape {reading.shape!r}: no static geometry"
+                continue
+            if obj.pose is not None:
+                x, y = to_metres(obj.pose.x, obj.pose.y, size)
+                position, angle = (float(x), float(y)), obj.pose.angle
+            elif motion is not None:
+                position, angle = (float(motion.positions[1, 0]), float(motion.positions[1, 1])), float(
+                    motion.angles[1])
+            elif reading.shape in _FIXED_STATICS:
+                position, angle = (0.0, 0.0), 0.0
+            else:
+                left_out[reading.id] = f"{reading.shape} without pose or track: its place is unknown"
+                continue
+            bodies.append(replace(make_static(reading.id, reading.shape, position, angle), color=reading.color))
+            continue
+        if motion is None:
+            left_out[reading.id] = "dynamic object without a usable track"
+            continue
+        try:
+            geometry = dynamic_geometry(reading.shape, reading.size)
+        except (ValueError, KeyError):
+            left_out[reading.id] = f"no geometry for shape {reading.shape!r}, size {reading.size!r}"
+            continue
+        bodies.append(BodySpec(
+            uid=reading.id, shape=reading.shape, color=reading.color, size=reading.size, dynamic=True,
+            position=(float(motion.positions[0, 0]), float(motion.positions[0, 1])), angle=float(motion.angles[0]),
+            velocity=(float(motion.velocities[0, 0]), float(motion.velocities[0, 1])),
+            angular_velocity=float(motion.angular_velocities[0]), geometry=geometry))
+    added: dict[int, str] = {}
+    present = {b.shape for b in bodies}
+    next_id = max([o.id for o in scene.objects] + [-1]) + 1
+    for shape in _FIXED_STATICS:
+        if shape not in present and not any(r.shape == shape for r in objects):
+            bodies.append(make_static(next_id, shape))
+            added[next_id] = shape
+            next_id += 1
+    world = WorldSpec(bodies=tuple(sorted(bodies, key=_order_key)), scene_id=scene.scene)
+    return PhysicsWorld(world, left_out, added)
+
+
+# -- initial state ------------------------------------------------------------------------------------------
+
+
+def _row_state(raw: RawRun, col: int, row: int) -> np.ndarray:
+    t = raw.trajectory
+    return np.array([t.positions[row, col, 0], t.positions[row, col, 1], t.angles[row, col],
+                     t.velocities[row, col, 0], t.velocities[row, col, 1], t.angular_velocities[row, col]])
+
+
+def _motion_state(m: Motion, row: int) -> np.ndarray:
+    return np.array([m.positions[row, 0], m.positions[row, 1], m.angles[row], m.velocities[row, 0],
+                     m.velocities[row, 1], m.angular_velocities[row]])
+
+
+def _with_state(spec: BodySpec, s: np.ndarray) -> BodySpec:
+    return replace(spec, position=(float(s[0]), float(s[1])), angle=float(s[2]), velocity=(float(s[3]), float(s[4])),
+                   angular_velocity=float(s[5]))
+
+
+def _state_of(spec: BodySpec) -> np.ndarray:
+    return np.array([spec.position[0], spec.position[1], spec.angle, spec.velocity[0], spec.velocity[1],
+                     spec.angular_velocity])
+
+
+def fit_start(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: PhysicsEngine,
+              layout: int | None) -> PhysicsWorld:
+    """Fit row 0 to the tracks (see the module docstring): state shooting when every track gives velocities,
+    else the simplest initial-velocity hypothesis that fits the positions of the first rows."""
+    dynamic = [b for b in pw.world.bodies if b.dynamic]
+    if not dynamic:
+        return pw
+    if all(motions[b.uid].given_velocities for b in dynamic):
+        return _shoot_state(pw, motions, engine, layout is not None)
+    return _fit_positions(pw, motions, engine, layout)
+
+
+def _shoot_state(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: PhysicsEngine,
+                 layout_prior: bool) -> PhysicsWorld:
+    world = pw.world
+    dynamic = [b for b in world.bodies if b.dynamic]
+    targets = {b.uid: _motion_state(motions[b.uid], 1) for b in dynamic}
+    states = {b.uid: _state_of(b) for b in dynamic}
+    if layout_prior:
+        for s in states.values():
+            s[2], s[5] = INITIAL_ANGLE, 0.0
+    mask = np.array([1, 1, 0, 1, 1, 0], dtype=float) if layout_prior else np.ones(6)
+    cols = {b.uid: i for i, b in enumerate(world.bodies)}
+    for _ in range(SHOOTING_ITERATIONS):
+        raw = engine.run(_with_states(world, states), 1)
+        worst = 0.0
+        for b in dynamic:
+            residual = targets[b.uid] - _row_state(raw, cols[b.uid], 1)
+            states[b.uid] += residual * mask
+            worst = max(worst, float(np.max(np.abs(residual * mask))))
+        if worst < SHOOTING_TOLERANCE:
+            break
+    return replace(pw, world=_with_states(world, states))
+
+
+def _with_states(world: WorldSpec, states: Mapping[int, np.ndarray]) -> WorldSpec:
+    return replace(world, bodies=tuple(_with_state(b, states[b.uid]) if b.dynamic else b for b in world.bodies))
+
+
+def fit_rows(motions: Mapping[int, Motion]) -> int:
+    """Rows of the position fit: 4 for exact tracks, more for noisy ones (twice the smoothing window)."""
+    sigma = max((m.sigma_px for m in motions.values()), default=0.0)
+    return 4 if sigma <= 0 else max(4, 2 * window_for(sigma))
+
+
+#: An initial-velocity hypothesis: vx, vy, each fixed (a number) or free (None).
+Hypothesis = tuple[float | None, float | None]
+_HYPOTHESIS_INDEX = (3, 4)
+
+
+def start_hypotheses(layout: int | None) -> list[Hypothesis]:
+    """The initial velocities a body may have, simplest first. With a known layout: one per distinct slot
+    velocity (a number where the slot gives one, free where it draws one); then at rest; then free. (Positions
+    are always fitted: a hypothesis is tried on every body at once, and fixed slot positions would stack them.)"""
+    out: list[Hypothesis] = []
+    if layout is not None:
+        from ..scenes import Const, Expr, load_scene
+
+        def fixed(q: object) -> float | None:
+            if isinstance(q, Const):
+                return q.value
+            if isinstance(q, Expr) and not q.names:
+                return q.evaluate({})
+            return None
+
+        for slot in load_scene(layout).dynamic:
+            h = (fixed(slot.velocity[0]), fixed(slot.velocity[1]))
+            if h not in out:
+                out.append(h)
+    for h in ((0.0, 0.0), (None, None)):
+        if h not in out:
+            out.append(h)
+    return sorted(out, key=lambda h: sum(c is None for c in h))
+
+
+def _fit_positions(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: PhysicsEngine,
+                   layout: int | None) -> PhysicsWorld:
+    """Fit the start to the positions (and, without a layout, the angles) of the first rows.
+
+    The first frames do not always pin the start down: a body resting on a platform at row 1 fits equally well
+    at rest at row 0 and falling into the platform during frame 0. So each
+    hypothesis of :func:`start_hypotheses` is fitted (Gauss-Newton on its free components), and each body takes
+    the simplest hypothesis whose misfit is within :data:`MISFIT_MARGIN` (plus the noise's chi-square allowance
+    for the extra parameters) of the best."""
+    world = pw.world
+    dynamic = [b for b in world.bodies if b.dynamic]
+    sigma_m = max(m.sigma_px for m in motions.values()) * 50.0 / 256.0
+    fits = []
+    for hypothesis in start_hypotheses(layout):
+        guess = {}
+        for b in dynamic:
+            s = _state_of(b)
+            for k, value in zip(_HYPOTHESIS_INDEX, hypothesis):
+                if value is not None:
+                    s[k] = value
+            guess[b.uid] = s
+        states, cost = _gauss_newton(world, motions, engine, layout is not None, guess, hypothesis)
+        fits.append((sum(c is None for c in hypothesis), states, cost))
+    best = {}
+    most_free = max(f[0] for f in fits)
+    for b in dynamic:
+        lowest = min(f[2][b.uid] for f in fits)
+        for free, states, cost in fits:  # simplest first
+            if cost[b.uid] <= lowest + MISFIT_MARGIN + 9.2 * (most_free - free) * sigma_m ** 2:
+                best[b.uid] = states[b.uid]
+                break
+    return replace(pw, world=_with_states(world, best))
+
+
+def _extent(spec: BodySpec) -> float:
+    geo = spec.geometry
+    r = geo.circle_radius or 0.0
+    for poly in geo.polygons:
+        r = max(r, max(float(np.hypot(x, y)) for x, y in poly))
+    return r
+
+
+def _independent_groups(dynamic: Sequence[BodySpec], motions: Mapping[int, Motion], rows: int) -> list[list[int]]:
+    """Greedy colouring of the bodies that may touch each other within ``rows`` rows (bounding circles with a 1 m
+    margin over their perceived paths): bodies of one group can be perturbed in the same run."""
+    paths = {b.uid: motions[b.uid].positions[: rows + 1] for b in dynamic}
+    reach = {b.uid: _extent(b) + 0.5 for b in dynamic}
+    groups: list[list[int]] = []
+    for b in dynamic:
+        for group in groups:
+            if all(float(np.min(np.hypot(*(paths[b.uid] - paths[o]).T))) > reach[b.uid] + reach[o] for o in group):
+                group.append(b.uid)
+                break
+        else:
+            groups.append([b.uid])
+    return groups
+
+
+def _gauss_newton(world: WorldSpec, motions: Mapping[int, Motion], engine: PhysicsEngine, layout_prior: bool,
+                  guess: Mapping[int, np.ndarray], hypothesis: Hypothesis
+                  ) -> tuple[dict[int, np.ndarray], dict[int, float]]:
+    """Gauss-Newton on the position, the free components of ``hypothesis`` and (without the layout prior) angle
+    and spin of every body, against the first rows' positions (and angles), from ``guess``.
+    Returns the states and each body's misfit (sum of squares). Bodies that cannot touch each other in these rows
+    are perturbed together (one run per parameter serves a whole group; :func:`_independent_groups`)."""
+    dynamic = [b for b in world.bodies if b.dynamic]
+    cols = {b.uid: i for i, b in enumerate(world.bodies)}
+    rows = min(fit_rows(motions), min(motions[b.uid].steps for b in dynamic))
+    fit_angle = not layout_prior
+    index = [0, 1] + [k for k, c in zip(_HYPOTHESIS_INDEX, hypothesis) if c is None] + ([2, 5] if fit_angle else [])
+    states = {uid: np.array(s, dtype=np.float64) for uid, s in guess.items()}
+    if layout_prior:
+        for s in states.values():
+            s[2], s[5] = INITIAL_ANGLE, 0.0
+
+    def observed(m: Motion) -> np.ndarray:
+        parts = [m.positions[1:rows + 1].ravel()] + ([m.angles[1:rows + 1]] if fit_angle else [])
+        return np.concatenate(parts)
+
+    def simulated(raw: RawRun, uid: int) -> np.ndarray:
+        t = raw.trajectory
+        parts = [t.positions[1:rows + 1, cols[uid]].ravel()] + ([t.angles[1:rows + 1, cols[uid]]] if fit_angle
+                                                               else [])
+        return np.concatenate(parts)
+
+    targets = {b.uid: observed(motions[b.uid]) for b in dynamic}
+    groups = _independent_groups(dynamic, motions, rows)
+
+    def evaluate(st: Mapping[int, np.ndarray]) -> tuple[RawRun, dict[int, np.ndarray], dict[int, float]]:
+        raw = engine.run(_with_states(world, st), rows)
+        residual = {b.uid: targets[b.uid] - simulated(raw, b.uid) for b in dynamic}
+        return raw, residual, {uid: float(r @ r) for uid, r in residual.items()}
+
+    base, residual, cost = evaluate(states)
+    for _ in range(SHOOTING_ITERATIONS):
+        if max(cost.values()) < SHOOTING_TOLERANCE ** 2:
+            break
+        jac = {b.uid: np.empty((targets[b.uid].size, len(index))) for b in dynamic}
+        for group in groups:
+            for j, k in enumerate(index):
+                moved = {uid: s.copy() for uid, s in states.items()}
+                for uid in group:
+                    moved[uid][k] += _FD_STEP[k]
+                run = engine.run(_with_states(world, moved), rows)
+                for uid in group:
+                    jac[uid][:, j] = (simulated(run, uid) - simulated(base, uid)) / _FD_STEP[k]
+        trial = {uid: s.copy() for uid, s in states.items()}
+        for b in dynamic:
+            delta, *_ = np.linalg.lstsq(jac[b.uid], residual[b.uid], rcond=None)
+            trial[b.uid][index] += delta
+        run, new_residual, new_cost = evaluate(trial)
+        improved = [b.uid for b in dynamic if new_cost[b.uid] < cost[b.uid]]
+        if not improved:
+            break
+        if len(improved) < len(dynamic):  # keep the steps that helped, re-run the mixture
+            trial = {uid: (trial[uid] if uid in improved else states[uid]) for uid in states}
+            run, new_residual, new_cost = evaluate(trial)
+        states, base, residual, cost = trial, run, new_residual, new_cost
+    return states, cost
+
+
+def _with_velocity(spec: BodySpec, v: np.ndarray) -> BodySpec:
+    return replace(spec, velocity=(float(v[0]), float(v[1])))
+
+
+def refine_start(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: PhysicsEngine, frames: int = 60,
+                 iterations: int = 3, epsilon: float = 1e-4) -> PhysicsWorld:
+    """Adjust the initial velocities to minimise the squared drift over the first ``frames`` rows."""
+    world = pw.world
+    dynamic = [b for b in world.bodies if b.dynamic]
+    if not dynamic:
+        return pw
+    cols = {b.uid: i for i, b in enumerate(world.bodies)}
+    frames = min(frames, min(m.steps for m in motions.values()))
+    target = np.concatenate([motions[b.uid].positions[1:frames + 1].ravel() for b in dynamic])
+
+    def residual(velocities: np.ndarray) -> np.ndarray:
+        bodies = []
+        it = iter(velocities.reshape(-1, 2))
+        for b in world.bodies:
+            bodies.append(_with_velocity(b, next(it)) if b.dynamic else b)
+        raw = engine.run(replace(world, bodies=tuple(bodies)), frames)
+        pos = raw.trajectory.positions
+        return np.concatenate([pos[1:frames + 1, cols[b.uid]].ravel() for b in dynamic]) - target
+
+    v = np.array([c for b in dynamic for c in b.velocity], dtype=np.float64)
+    r = residual(v)
+    cost = float(r @ r)
+    for _ in range(iterations):
+        jac = np.empty((r.size, v.size))
+        for j in range(v.size):
+            dv = v.copy()
+            dv[j] += epsilon
+            jac[:, j] = (residual(dv) - r) / epsilon
+        step, *_ = np.linalg.lstsq(jac, -r, rcond=None)
+        candidate = v + step
+        rc = residual(candidate)
+        c_cost = float(rc @ rc)
+        if c_cost >= cost:
+            break
+        v, r, cost = candidate, rc, c_cost
+    it = iter(v.reshape(-1, 2))
+    bodies = tuple(_with_velocity(b, next(it)) if b.dynamic else b for b in world.bodies)
+    return replace(pw, world=replace(world, bodies=bodies))
+
+
+# -- rows and drift ------------------------------------------------------------------------------------------
+
+
+def row_states(pw: PhysicsWorld, motions: Mapping[int, Motion], steps: int,
+               engine: PhysicsEngine | None = None) -> RowStates:
+    """Per-row states of every body: statics at rest, dynamic bodies on their tracks with row 0 the fitted start.
+
+    With ``engine``, the estimated velocities of the first rows (those the start was fitted to, where bodies may
+    still be pushed out of an initial overlap) are taken from the engine's run of the fitted start."""
+    world = pw.world
+    n = len(world.bodies)
+    pos = np.zeros((steps + 1, n, 2))
+    ang = np.zeros((steps + 1, n))
+    vel = np.zeros((steps + 1, n, 2))
+    angv = np.zeros((steps + 1, n))
+    for i, b in enumerate(world.bodies):
+        if b.dynamic:
+            m = motions[b.uid]
+            pos[:, i] = m.positions
+            ang[:, i] = m.angles
+            vel[:, i] = m.velocities
+            angv[:, i] = m.angular_velocities
+            pos[0, i] = b.position
+            ang[0, i] = b.angle
+            vel[0, i] = b.velocity
+            angv[0, i] = b.angular_velocity
+        else:
+            pos[:, i] = b.position
+            ang[:, i] = b.angle
+    estimated = [i for i, b in enumerate(world.bodies) if b.dynamic and not motions[b.uid].given_velocities]
+    if engine is not None and estimated:
+        head = min(fit_rows(motions), steps)
+        run = engine.run(world, head).trajectory
+        vel[1:head, estimated] = run.velocities[1:head, estimated]
+        angv[1:head, estimated] = run.angular_velocities[1:head, estimated]
+    return RowStates(pos, ang, vel, angv)
+
+
+def drift(pw: PhysicsWorld, run: RawRun, states: RowStates, size: int) -> dict[int, Drift]:
+    """Per dynamic body: distance (pixels) between the re-simulated and the perceived positions, rows 1..T."""
+    px_per_m = size / 50.0
+    out = {}
+    traj = run.trajectory
+    for i, b in enumerate(pw.world.bodies):
+        if not b.dynamic:
+            continue
+        d = np.hypot(*(traj.positions[1:, traj.column(b.uid)] - states.positions[1:, i]).T) * px_per_m
+        over = np.nonzero(d > 1.0)[0]
+        out[b.uid] = Drift(float(d.mean()), float(d.max()), float(d[-1]),
+                           int(over[0]) + 1 if over.size else None)
+    return out
