@@ -152,7 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     mods.set_defaults(func=cmd_modules)
 
     for name in ("craft_dsl.demo", "craft_dsl.physics.cli", "craft_dsl.render.cli", "craft_dsl.verify_cli",
-                 "craft_dsl.dataset.cli"):
+                 "craft_dsl.dataset.cli", "craft_dsl.perception.cli"):
         try:
             module = importlib.import_module(name)
         except ImportError as err:

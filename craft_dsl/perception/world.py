@@ -222,19 +222,22 @@ class SceneModel:
         events.append(Event(len(events), END, self.steps, ()))
         return events
 
+    @cached_property
+    def _states(self) -> dict[int, tuple[ObjectState, ObjectState]]:
+        """Start and end state of every tracked object (the moving flags come from the reading)."""
+        out = {}
+        for uid, m in self.motions.items():
+            out[uid] = tuple(
+                ObjectState((float(m.positions[r, 0]), float(m.positions[r, 1])), float(m.angles[r]),
+                            (float(m.velocities[r, 0]), float(m.velocities[r, 1])), float(m.angular_velocities[r]))
+                for r in (0, -1))
+        return out  # type: ignore[return-value]
+
     def _objects(self, reading: Reading) -> list[SimObject]:
         out = []
+        rest = (ObjectState(), ObjectState())
         for o in reading.objects:
-            m = self.motions.get(o.id)
-            if m is not None:
-                start = ObjectState((float(m.positions[0, 0]), float(m.positions[0, 1])), float(m.angles[0]),
-                                    (float(m.velocities[0, 0]), float(m.velocities[0, 1])),
-                                    float(m.angular_velocities[0]))
-                end = ObjectState((float(m.positions[-1, 0]), float(m.positions[-1, 1])), float(m.angles[-1]),
-                                  (float(m.velocities[-1, 0]), float(m.velocities[-1, 1])),
-                                  float(m.angular_velocities[-1]))
-            else:
-                start = end = ObjectState()
+            start, end = self._states.get(o.id, rest)
             out.append(SimObject(o.id, o.shape, o.color, o.size, o.dynamic, start, end))
         for uid, shape in self._unfitted.added.items():
             out.append(SimObject(uid, shape, "black", "large", False))
