@@ -14,9 +14,10 @@ Thresholds, in metres:
 * a body is *in the basket* when its (uninflated) shape overlaps the basket's sensor polygon;
 * a pair touches *in frame k* (the step from row k to row k + 1, the engine's convention) when it touches in the
   state of row k, of row k + 1, or in the state each body would reach from row k in free flight
-  (``x + v h + c g h^2``, the engine's sub-stepped free flight). The start state keeps a contact that ends
-  inside the frame, as the engine does; the free-flight state catches bounces that begin and end inside one
-  frame (the observed end state is already apart, the free-flight prediction runs into the other shape).
+  (``x + v h + c g h^2``, the engine's sub-stepped free flight) if it is within :data:`NEAR_TOLERANCE` at row
+  k + 1. The start state keeps a contact that ends inside the frame, as the engine does; the free-flight state
+  catches bounces that begin and end inside one frame (the observed end state is already apart, the prediction
+  runs into the other shape).
 
 Static-static pairs never touch (as in the engine). Measured on exact tracks of 20 scenes x 5 seeds the derived
 events match the simulator's (same type, objects and step) for the share reported in ``docs/perception.md``.
@@ -37,6 +38,10 @@ from .tracks import INTEGRATOR_C
 
 #: Shapes closer than this (metres) touch (the engine's contacts keep a 0.005 m slop; resting bodies overlap).
 CONTACT_TOLERANCE = 0.0
+#: A contact seen only in the free-flight prediction counts when the pair is this close (metres) at the frame's
+#: end: a bounce leaves at a fifth of the impact speed, so at most this far within a frame below 18 m/s; farther
+#: away, the prediction went through something else (e.g. a basket's floor into the ground below it).
+NEAR_TOLERANCE = 0.06
 #: The engine's skin on polygons and edges (metres).
 SKIN = 0.01
 
@@ -154,9 +159,8 @@ def _free_flight(states: RowStates, row: int, gravity: tuple[float, float]) -> t
     return pos, ang
 
 
-def _frame_samples(states: RowStates, k: int, gravity: tuple[float, float]) -> list[tuple[np.ndarray, np.ndarray]]:
-    return [(states.positions[k], states.angles[k]), (states.positions[k + 1], states.angles[k + 1]),
-            _free_flight(states, k, gravity)]
+def _row(states: RowStates, row: int) -> tuple[np.ndarray, np.ndarray]:
+    return states.positions[row], states.angles[row]
 
 
 def _intervals(frames_by_key: Mapping[object, list[int]]) -> dict[object, tuple[Interval, ...]]:
@@ -176,6 +180,7 @@ def _same_samples(states: RowStates, k: int, cols: list[int]) -> bool:
 def derive_log(world: WorldSpec, states: RowStates, tolerance: float = CONTACT_TOLERANCE) -> ContactLog:
     """The contact log of a run rebuilt from its per-row states (see the module docstring)."""
     probe = GeometryProbe(world, tolerance)
+    near = GeometryProbe(world, NEAR_TOLERANCE)
     columns = {b.uid: i for i, b in enumerate(world.bodies)}
     dyn_cols = [columns[u] for u in probe.dynamic]
     steps = states.steps
@@ -186,11 +191,15 @@ def derive_log(world: WorldSpec, states: RowStates, tolerance: float = CONTACT_T
         if previous is not None and _same_samples(states, k, dyn_cols):
             touching, inside = previous
         else:
-            touching, inside = set(), set()
-            for pos, ang in _frame_samples(states, k, world.gravity):
+            touching = set()
+            for pos, ang in (_row(states, k), _row(states, k + 1)):
                 probe.place(pos, ang, columns)
                 touching |= probe.touching()
-            probe.place(states.positions[k + 1], states.angles[k + 1], columns)
+            near.place(*_row(states, k + 1), columns)
+            close = near.touching()
+            probe.place(*_free_flight(states, k, world.gravity), columns)
+            touching |= probe.touching() & close
+            probe.place(*_row(states, k + 1), columns)
             inside = probe.in_sensor()
         for key in touching:
             contacts.setdefault(key, []).append(k)
@@ -231,9 +240,11 @@ class _PairGeometry:
         return found
 
     def touching_parts(self, a: int, b: int, frame: int) -> set[PairKey]:
+        """The pair's touching parts in ``frame``: at its end, or in the free-flight prediction (a brief contact's
+        end is estimated without the start-of-frame state: a bounce separates at once)."""
         if frame >= self.states.steps:
             return set()
-        return self._parts(a, b, _frame_samples(self.states, frame, self.world.gravity))
+        return self._parts(a, b, [_row(self.states, frame + 1), _free_flight(self.states, frame, self.world.gravity)])
 
     def inside(self, basket: int, body: int, frame: int) -> bool:
         if frame >= self.states.steps:
@@ -257,7 +268,7 @@ def log_from_events(events: Sequence[StepEvent], steps: int, basket_id: int, wor
     contacts: dict[PairKey, list[Interval]] = {}
     sensors: dict[SensorKey, list[Interval]] = {}
     ordered = sorted(events, key=lambda e: (e.step, e.index))
-    open_touch: dict[tuple[int, int], int] = {}
+    open_touch: dict[tuple[int, int], list[tuple[int, PairKey]]] = {}
 
     def key_for(a: int, b: int, step: int) -> PairKey:
         if geometry is not None and uids is not None and a in uids and b in uids:
@@ -266,31 +277,47 @@ def log_from_events(events: Sequence[StepEvent], steps: int, basket_id: int, wor
                 return parts[0]
         return pair_key(a, 0, b, 0)
 
+    def next_begin(e: StepEvent) -> int:
+        """The step of the pair's next contact event: a contact must end before the next one begins."""
+        later = [f.step for f in ordered if f.step > e.step and set(f.objects) == set(e.objects)
+                 and f.type in (COLLISION, TOUCH_START)]
+        return min(later, default=steps + 1)
+
     for e in ordered:
         if len(e.objects) != 2:
             continue
         a, b = e.objects
         pair = (max(a, b), min(a, b))
         if e.type == COLLISION:
-            end = e.step + 1
             key = key_for(a, b, e.step)
+            end = e.step + 1
             if geometry is not None:
                 end = e.step + COLLISION_MAX_STEPS
                 for f in range(e.step + 1, e.step + COLLISION_MAX_STEPS):
                     if key not in geometry.touching_parts(a, b, f):
                         end = f
                         break
-            contacts.setdefault(key, []).append((e.step, min(end, steps)))
+            end = max(e.step + 1, min(end, next_begin(e) - 1, steps))
+            contacts.setdefault(key, []).append((e.step, end))
         elif e.type == TOUCH_START:
-            open_touch[pair] = e.step
+            open_touch.setdefault(pair, []).append((e.step, key_for(a, b, e.step)))
         elif e.type == TOUCH_END:
-            start = open_touch.pop(pair, max(0, e.step - COLLISION_MAX_STEPS - 1))
-            contacts.setdefault(key_for(a, b, start), []).append((start, e.step))
+            opened = open_touch.get(pair)
+            if opened:
+                ending = key_for(a, b, e.step - 1)
+                match = next((o for o in opened if o[1] == ending), opened[0])
+                opened.remove(match)
+                start, key = match
+            else:
+                start = max(0, e.step - COLLISION_MAX_STEPS - 1)
+                key = key_for(a, b, start)
+            contacts.setdefault(key, []).append((start, e.step))
         elif e.type == ENTER_BASKET:
             body = b if a == basket_id else a
             sensors.setdefault((basket_id, body), []).append((e.step, -1))
-    for (a, b), start in open_touch.items():
-        contacts.setdefault(key_for(a, b, start), []).append((start, steps))
+    for opened in open_touch.values():
+        for start, key in opened:
+            contacts.setdefault(key, []).append((start, steps))
     closed_sensors: dict[SensorKey, list[Interval]] = {}
     for (basket, body), ivs in sensors.items():
         starts = sorted(s for s, _ in ivs)

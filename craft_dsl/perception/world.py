@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 from typing import Any, Literal
 
@@ -289,26 +289,29 @@ class SceneModel:
         return sim
 
     def counterfactual(self, uid: int, reading: Reading) -> Simulation:
-        """The counterfactual of ``reading`` without ``uid``: the run without it, less the perceived events the
-        reading leaves out (where the run did not re-simulate them)."""
+        """The counterfactual of ``reading`` without ``uid``.
+
+        Replay mode with perceived events: an event of a pair before the first frame either of its bodies was
+        re-simulated is the perceived event itself (when the reading has it); from that frame on, events come from
+        the re-simulated run. So every body the removal cannot reach keeps exactly its perceived events. The other
+        modes take the run's events as they are."""
         run = self.counterfactual_run(uid)
         if self.events_source == "derived" or self.options.counterfactual == "resimulate":
             return run
-        excluded = [e for e in self.step_events if e.index not in reading.events]
-        if not excluded:
-            return run
         activation = run.activation
-        drop = {(e.type, e.step, frozenset(e.objects)) for e in excluded}
 
-        def replayed(e: Event) -> bool:
-            first = min((activation.get(o, math.inf) for o in e.objects), default=math.inf)
-            return first > e.step
+        def switch(e: Event) -> float:
+            return min((activation.get(o, math.inf) for o in e.objects), default=math.inf)
 
-        kept = [e for e in run.events if not ((e.type, e.step, frozenset(e.objects)) in drop and replayed(e))]
-        if len(kept) == len(run.events):
-            return run
-        renumbered = [replace(e, id=i) for i, e in enumerate(kept)]
-        return Simulation(run.objects, renumbered, steps=run.steps, removed=(uid,), meta=dict(run.meta))
+        seen = [e for e in self.factual_events(reading)
+                if e.type not in (START, END) and uid not in e.objects and e.step < switch(e)]
+        simulated = [e for e in run.events if e.type not in (START, END) and e.step >= switch(e)]
+        merged = sorted([(e.step, 0, i, e) for i, e in enumerate(seen)]
+                        + [(e.step, 1, i, e) for i, e in enumerate(simulated)])
+        events = [Event(0, START, -1, ())]
+        events += [Event(i + 1, e.type, e.step, e.objects) for i, (_, _, _, e) in enumerate(merged)]
+        events.append(Event(len(events), END, self.steps, ()))
+        return Simulation(run.objects, events, steps=run.steps, removed=(uid,), meta=dict(run.meta))
 
 
 def most_likely_world(scene: PerceivedScene, options: ExecutionOptions | None = None) -> PerceivedSimulation:
