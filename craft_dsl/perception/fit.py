@@ -248,6 +248,8 @@ def _fit_positions(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: Phys
     sigma_m = max(m.sigma_px for m in motions.values()) * 50.0 / 256.0
     fits = []
     for hypothesis in start_hypotheses(layout):
+        if fits and all(min(f[2][b.uid] for f in fits) <= MISFIT_MARGIN for b in dynamic):
+            break  # every body already fits (exact tracks): more complex hypotheses cannot be simpler
         guess = {}
         for b in dynamic:
             s = _state_of(b)

@@ -65,6 +65,8 @@ class Motion:
     velocity_sigma: float  # standard deviation of an estimated velocity component (m/s; 0 = exact)
     given_velocities: bool
     has_angle: bool
+    end_velocity: np.ndarray  # [2] the velocity the last state is judged by (m/s)
+    end_velocity_sigma: float  # its standard deviation per component (m/s; 0 = exact)
 
     @property
     def steps(self) -> int:
@@ -299,8 +301,27 @@ def scene_motions(scene: PerceivedScene) -> dict[int, Motion]:
             velocity_sigma=0.0 if tr.velocities is not None else rate_sigma(tr.sigma_px * scale, tr.window),
             given_velocities=tr.velocities is not None,
             has_angle=tr.has_angle,
+            **_end_velocity(tr, velocities, scale),
         )
     return out
+
+
+#: Rows of the straight-line fit that judges whether a noisy track still moves at the end (half a second).
+END_ROWS = 30
+
+
+def _end_velocity(tr: _TrackRows, velocities: np.ndarray, scale: float) -> dict[str, object]:
+    """Exact tracks: the last row's velocity. Noisy tracks (without given velocities): the slope of a straight line
+    fitted to the last :data:`END_ROWS` rows, whose noise is far smaller than a single row's derivative."""
+    if tr.velocities is not None or tr.sigma_px <= 0:
+        return {"end_velocity": velocities[-1].copy(), "end_velocity_sigma": 0.0}
+    n = min(END_ROWS, tr.positions.shape[0])
+    t = np.arange(n, dtype=np.float64) / STEPS_PER_SECOND
+    t -= t.mean()
+    tail = tr.positions[-n:]
+    slope = (t @ (tail - tail.mean(axis=0))) / float(t @ t)
+    sigma = tr.sigma_px * scale / math.sqrt(float(t @ t))
+    return {"end_velocity": slope, "end_velocity_sigma": sigma}
 
 
 # -- moving or not --------------------------------------------------------------------------------------------

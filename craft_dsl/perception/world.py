@@ -92,6 +92,7 @@ class SceneModel:
         self.map_objects: tuple[ObjectReading, ...] = most_likely_objects(scene)
         self._unfitted = build_world(scene, self.map_objects, self.motions)
         self._cf_cache: dict[int, LiveSimulation] = {}
+        self._reading_cf_cache: dict[tuple[int, frozenset[int]], Simulation] = {}
         rows = frame_rows(self.steps, scene.video.fps)
         self.step_events: list[StepEvent] = []
         for i, e in enumerate(scene.events or ()):
@@ -198,7 +199,7 @@ class SceneModel:
                 out[obj.id] = obj.moving_end
             elif obj.id in self.motions:
                 m = self.motions[obj.id]
-                out[obj.id] = moving_probability(m.velocities[-1], m.velocity_sigma)
+                out[obj.id] = moving_probability(m.end_velocity, m.end_velocity_sigma)
             else:
                 out[obj.id] = 0.0
         return out
@@ -298,6 +299,9 @@ class SceneModel:
         run = self.counterfactual_run(uid)
         if self.events_source == "derived" or self.options.counterfactual == "resimulate":
             return run
+        cached = self._reading_cf_cache.get((uid, reading.events))
+        if cached is not None:
+            return cached
         activation = run.activation
 
         def switch(e: Event) -> float:
@@ -311,7 +315,9 @@ class SceneModel:
         events = [Event(0, START, -1, ())]
         events += [Event(i + 1, e.type, e.step, e.objects) for i, (_, _, _, e) in enumerate(merged)]
         events.append(Event(len(events), END, self.steps, ()))
-        return Simulation(run.objects, events, steps=run.steps, removed=(uid,), meta=dict(run.meta))
+        sim = Simulation(run.objects, events, steps=run.steps, removed=(uid,), meta=dict(run.meta))
+        self._reading_cf_cache[(uid, reading.events)] = sim
+        return sim
 
 
 def most_likely_world(scene: PerceivedScene, options: ExecutionOptions | None = None) -> PerceivedSimulation:
