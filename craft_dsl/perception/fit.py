@@ -246,7 +246,7 @@ def _fit_positions(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: Phys
     world = pw.world
     dynamic = [b for b in world.bodies if b.dynamic]
     sigma_m = max(m.sigma_px for m in motions.values()) * 50.0 / 256.0
-    fits = []
+    fits: list[tuple[int, dict[int, np.ndarray], dict[int, float]]] = []
     for hypothesis in start_hypotheses(layout):
         if fits and all(min(f[2][b.uid] for f in fits) <= MISFIT_MARGIN for b in dynamic):
             break  # every body already fits (exact tracks): more complex hypotheses cannot be simpler

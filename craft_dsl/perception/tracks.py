@@ -292,6 +292,7 @@ def scene_motions(scene: PerceivedScene) -> dict[int, Motion]:
         velocities = tr.velocities if tr.velocities is not None else estimate_rates(tr.positions, tr.window, c)
         angular = (tr.angular_velocities if tr.angular_velocities is not None
                    else estimate_rates(tr.angles, tr.window, c))
+        end_velocity, end_sigma = _end_velocity(tr, velocities, scale)
         out[uid] = Motion(
             positions=_prepend_row_zero(tr.positions, 2),
             angles=_prepend_row_zero(tr.angles, 2),
@@ -301,7 +302,8 @@ def scene_motions(scene: PerceivedScene) -> dict[int, Motion]:
             velocity_sigma=0.0 if tr.velocities is not None else rate_sigma(tr.sigma_px * scale, tr.window),
             given_velocities=tr.velocities is not None,
             has_angle=tr.has_angle,
-            **_end_velocity(tr, velocities, scale),
+            end_velocity=end_velocity,
+            end_velocity_sigma=end_sigma,
         )
     return out
 
@@ -310,18 +312,18 @@ def scene_motions(scene: PerceivedScene) -> dict[int, Motion]:
 END_ROWS = 30
 
 
-def _end_velocity(tr: _TrackRows, velocities: np.ndarray, scale: float) -> dict[str, object]:
+def _end_velocity(tr: _TrackRows, velocities: np.ndarray, scale: float) -> tuple[np.ndarray, float]:
     """Exact tracks: the last row's velocity. Noisy tracks (without given velocities): the slope of a straight line
     fitted to the last :data:`END_ROWS` rows, whose noise is far smaller than a single row's derivative."""
     if tr.velocities is not None or tr.sigma_px <= 0:
-        return {"end_velocity": velocities[-1].copy(), "end_velocity_sigma": 0.0}
+        return velocities[-1].copy(), 0.0
     n = min(END_ROWS, tr.positions.shape[0])
     t = np.arange(n, dtype=np.float64) / STEPS_PER_SECOND
     t -= t.mean()
     tail = tr.positions[-n:]
     slope = (t @ (tail - tail.mean(axis=0))) / float(t @ t)
     sigma = tr.sigma_px * scale / math.sqrt(float(t @ t))
-    return {"end_velocity": slope, "end_velocity_sigma": sigma}
+    return slope, sigma
 
 
 # -- moving or not --------------------------------------------------------------------------------------------
