@@ -208,8 +208,10 @@ def _distribution(weights: Mapping[str, float], answers: Mapping[str, Any], meth
     return AnswerDistribution(ordered, {k: answers[k] for k in ordered}, method, samples, errors, invalid)
 
 
-def _readings(model: SceneModel, factors: Sequence[Factor], bound: int, samples: int, seed: int
-              ) -> tuple[str, int, Iterator[tuple[tuple[int, ...], float]]]:
+Weighted = Iterator[tuple[tuple[int, ...], float]]
+
+
+def _readings(factors: Sequence[Factor], bound: int, samples: int, seed: int) -> tuple[str, int, Weighted]:
     """(method, count, iterator of (choice, weight))."""
     total = reading_count(factors)
     if total <= bound:
@@ -239,7 +241,7 @@ def answer_distributions(scene: PerceivedScene | SceneModel, programs: Sequence[
     model = scene if isinstance(scene, SceneModel) else SceneModel(scene, options)
     factors = scene_factors(model)
     base = _base_reading(model)
-    method, count, readings = _readings(model, factors, bound, samples, seed)
+    method, count, readings = _readings(factors, bound, samples, seed)
     weights: list[dict[str, float]] = [{} for _ in programs]
     answers: list[dict[str, Any]] = [{} for _ in programs]
     cache: dict[tuple[int, ...], list[tuple[str, Any]]] = {}

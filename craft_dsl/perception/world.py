@@ -32,7 +32,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..errors import CounterfactualUnavailable, PerceptionError
+from ..errors import CounterfactualUnavailable, PerceptionError, SimulationFileError
 from ..physics.engine import PhysicsEngine, RawRun
 from ..physics.events import events_from_log
 from ..physics.live import LiveSimulation, clean_counterfactual, get_engine
@@ -252,14 +252,8 @@ class SceneModel:
                 self, reading, self._objects(reading), self.factual_events(reading), steps=self.steps,
                 counterfactuals=lambda uid: self.counterfactual(uid, reading),
                 meta={"scene": self.scene.scene, "source": "perceived", **self.scene.meta})
-        except PerceptionError:
-            raise
-        except Exception as err:  # a Simulation refusing the reading (e.g. no basket): say it is the perception
-            from ..errors import CraftError
-
-            if isinstance(err, CraftError):
-                raise PerceptionError(f"the perceived scene does not make a simulation: {err}") from None
-            raise
+        except SimulationFileError as err:  # e.g. no basket: say that it is the perceived scene that is wrong
+            raise PerceptionError(f"the perceived scene does not make a simulation: {err}") from None
 
     # -- counterfactuals ---------------------------------------------------------------------------------------
 
