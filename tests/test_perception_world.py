@@ -143,3 +143,23 @@ def test_derived_events_replace_missing_ones(sims: dict[tuple[int, int], LiveSim
     assert exact / sum(truth.values()) >= 0.9  # documented: derived events are close, not exact
     assert {k for k in derived if k[0] == "EnterBasket"} == {k for k in truth if k[0] == "EnterBasket"}
     assert len(templates()) == 67
+
+
+def test_recorded_simulation_export_answers_descriptive_questions() -> None:
+    from conftest import E1_PATH
+
+    from craft_dsl import load_simulation
+
+    sim = load_simulation(E1_PATH)
+    scene = export_perceived(sim)
+    assert all(o.track is None and o.moving_start is not None for o in scene.objects)
+    world = most_likely_world(scene)
+    checked = 0
+    for template, _params, program, answer in first_instances(sim, include_dropped=True):
+        if family_of(template.id) == "D":
+            assert program.run(world) == answer, template.id
+            checked += 1
+        else:  # a recorded export has no tracks: nothing to re-simulate from
+            with pytest.raises(CounterfactualUnavailable):
+                program.run(world)
+    assert checked >= 20
