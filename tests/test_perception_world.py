@@ -163,3 +163,16 @@ def test_recorded_simulation_export_answers_descriptive_questions() -> None:
             with pytest.raises(CounterfactualUnavailable):
                 program.run(world)
     assert checked >= 20
+
+
+@pytest.mark.parametrize("fps", [30, 12])
+def test_lower_frame_rates_keep_descriptive_answers(sims: dict[tuple[int, int], LiveSimulation], fps: int) -> None:
+    sim = sims[(3, 7)]
+    scene = export_perceived(sim, fps=fps)
+    assert scene.video.frames == 600 * fps // 60 and scene.steps == 600
+    world = most_likely_world(scene)
+    for template, _params, program, answer in first_instances(sim, include_dropped=True):
+        if family_of(template.id) == "D":
+            assert program.run(world) == answer, template.id
+        else:
+            program.run(world)  # counterfactuals re-simulate from the interpolated tracks
