@@ -96,3 +96,19 @@ def test_subprocess_run_over_an_exported_scene(exported: Path) -> None:
     res = subprocess.run([sys.executable, "-m", "craft_dsl.cli", "perceive", "run", "Count(Events())",
                           "--perceived", str(exported)], capture_output=True, text=True, check=False)
     assert res.returncode == 0 and res.stdout.strip() == "50"
+
+
+def test_answer_picks_one_video_of_a_dataset_file(exported: Path, tmp_path: Path) -> None:
+    import numpy as np
+
+    from craft_dsl.perception.answering import read_question_file
+
+    sim = simulate(3, seed=7)
+    records = generate_questions(sim, np.random.default_rng(0), video_index=4, video_filename="v.mp4")[:5]
+    dataset = [{"questions": {"info": {"video_index": v}, "questions": [dict(r, video_index=v) for r in records]}}
+               for v in (3, 4)]
+    path = tmp_path / "dataset.json"
+    path.write_text(json.dumps(dataset), encoding="utf-8")
+    items = read_question_file(path, video_index=4)
+    assert [i.template_id for i in items] == [r["template_id"] for r in records]
+    assert main(["perceive", "answer", "--perceived", str(exported), "--questions", str(path)]) == 2  # which video?
