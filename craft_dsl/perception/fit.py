@@ -8,14 +8,13 @@ that have neither pose nor track, are left out of the physics (listed in :attr:`
 are created in the original order (walls, ground, basket, other statics, dynamic bodies; by descending id within a
 group), which is the simulator's own order for a scene exported from it.
 
-Initial state (row 0, never shown in a video). The state at the first frame (row 1) is taken from the track:
-position and angle, and the velocities (the track's, or estimated by :mod:`craft_dsl.perception.tracks`). Row 0
-is then fitted by shooting: the world is stepped one frame from a guess, and the guess is corrected by the
-difference between the stepped and the perceived row-1 state, until it agrees to 1e-12 (at most
-:data:`SHOOTING_ITERATIONS` rounds; contacts and overlap push-out in the first frame are handled by the engine
-itself). When the scene layout is known, every dynamic body starts at angle pi without spin, as in every CRAFT
-layout. :func:`refine_start` can further adjust the initial velocities to minimise the drift over the first
-second (Gauss-Newton with finite differences), for noisy tracks.
+Initial state (row 0, never shown in a video). Gauss-Newton (finite-difference Jacobian, backtracking) fits it
+against the perceived row-1 state when the tracks give velocities, else against the positions of the first rows;
+bodies that may touch each other are fitted jointly, and the engine itself handles contacts and the push-out of
+initial overlaps in the first frame. Because the first frames do not always pin the start down, each
+initial-velocity hypothesis of :func:`start_hypotheses` is fitted and each body takes the simplest that fits.
+When the scene layout is known, every dynamic body starts at angle pi without spin, as in every CRAFT layout.
+:func:`refine_start` can further adjust the initial velocities to minimise the drift over the first second.
 
 Drift: per object, the distance in video pixels between the re-simulated and the perceived positions, at every
 row the track covers.
@@ -40,17 +39,17 @@ from .coords import to_metres
 from .events import RowStates
 from .reading import ObjectReading, is_static_shape
 from .schema import PerceivedScene
-from .tracks import Motion, window_for
+from .tracks import INTEGRATOR_C, Motion, window_for
 
-#: Rounds of the initial-state shooting.
-SHOOTING_ITERATIONS = 8
+#: Gauss-Newton iterations of the start fit.
+FIT_ITERATIONS = 12
 #: Misfit (square metres, summed over the fitted rows) within which a simpler initial-velocity hypothesis is as
 #: good as the best one.
 MISFIT_MARGIN = 1e-9
 #: Finite-difference steps of the state components (x, y, angle, vx, vy, spin).
 _FD_STEP = {0: 1e-6, 1: 1e-6, 2: 1e-7, 3: 1e-5, 4: 1e-5, 5: 1e-6}
-#: Shooting stops when the row-1 state agrees to this (metres, radians, m/s, rad/s).
-SHOOTING_TOLERANCE = 1e-12
+#: The start fit stops when every residual is below this (metres, radians, m/s, rad/s).
+FIT_TOLERANCE = 1e-12
 _FIXED_STATICS = ("wall_l", "wall_r", "ground")
 _ORDER = {"wall_l": 0, "wall_r": 1, "ground": 2, "basket": 3}
 
@@ -161,37 +160,14 @@ def _state_of(spec: BodySpec) -> np.ndarray:
 
 def fit_start(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: PhysicsEngine,
               layout: int | None) -> PhysicsWorld:
-    """Fit row 0 to the tracks (see the module docstring): state shooting when every track gives velocities,
-    else the simplest initial-velocity hypothesis that fits the positions of the first rows."""
+    """Fit row 0 to the tracks (see the module docstring): for each initial-velocity hypothesis, Gauss-Newton
+    against the row-1 state when every track gives velocities, else against the first rows' positions; each body
+    takes the simplest hypothesis that fits."""
     dynamic = [b for b in pw.world.bodies if b.dynamic]
     if not dynamic:
         return pw
-    if all(motions[b.uid].given_velocities for b in dynamic):
-        return _shoot_state(pw, motions, engine, layout is not None)
-    return _fit_positions(pw, motions, engine, layout)
-
-
-def _shoot_state(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: PhysicsEngine,
-                 layout_prior: bool) -> PhysicsWorld:
-    world = pw.world
-    dynamic = [b for b in world.bodies if b.dynamic]
-    targets = {b.uid: _motion_state(motions[b.uid], 1) for b in dynamic}
-    states = {b.uid: _state_of(b) for b in dynamic}
-    if layout_prior:
-        for s in states.values():
-            s[2], s[5] = INITIAL_ANGLE, 0.0
-    mask = np.array([1, 1, 0, 1, 1, 0], dtype=float) if layout_prior else np.ones(6)
-    cols = {b.uid: i for i, b in enumerate(world.bodies)}
-    for _ in range(SHOOTING_ITERATIONS):
-        raw = engine.run(_with_states(world, states), 1)
-        worst = 0.0
-        for b in dynamic:
-            residual = targets[b.uid] - _row_state(raw, cols[b.uid], 1)
-            states[b.uid] += residual * mask
-            worst = max(worst, float(np.max(np.abs(residual * mask))))
-        if worst < SHOOTING_TOLERANCE:
-            break
-    return replace(pw, world=_with_states(world, states))
+    use_state = all(motions[b.uid].given_velocities for b in dynamic)
+    return _fit_hypotheses(pw, motions, engine, layout, use_state)
 
 
 def _with_states(world: WorldSpec, states: Mapping[int, np.ndarray]) -> WorldSpec:
@@ -234,18 +210,19 @@ def start_hypotheses(layout: int | None) -> list[Hypothesis]:
     return sorted(out, key=lambda h: sum(c is None for c in h))
 
 
-def _fit_positions(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: PhysicsEngine,
-                   layout: int | None) -> PhysicsWorld:
-    """Fit the start to the positions (and, without a layout, the angles) of the first rows.
+def _fit_hypotheses(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: PhysicsEngine, layout: int | None,
+                    use_state: bool) -> PhysicsWorld:
+    """Fit the start under each hypothesis of :func:`start_hypotheses` and give each body the simplest one whose
+    misfit is within :data:`MISFIT_MARGIN` (plus the noise's chi-square allowance for the extra parameters) of
+    the best.
 
     The first frames do not always pin the start down: a body resting on a platform at row 1 fits equally well
-    at rest at row 0 and falling into the platform during frame 0. So each
-    hypothesis of :func:`start_hypotheses` is fitted (Gauss-Newton on its free components), and each body takes
-    the simplest hypothesis whose misfit is within :data:`MISFIT_MARGIN` (plus the noise's chi-square allowance
-    for the extra parameters) of the best."""
+    at rest at row 0 and falling into the platform during frame 0, or drifting by a millimetre per second."""
     world = pw.world
     dynamic = [b for b in world.bodies if b.dynamic]
     sigma_m = max(m.sigma_px for m in motions.values()) * 50.0 / 256.0
+    h = 1.0 / world.steps_per_second
+    g = np.asarray(world.gravity)
     fits: list[tuple[int, dict[int, np.ndarray], dict[int, float]]] = []
     for hypothesis in start_hypotheses(layout):
         if fits and all(min(f[2][b.uid] for f in fits) <= MISFIT_MARGIN for b in dynamic):
@@ -256,8 +233,10 @@ def _fit_positions(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: Phys
             for k, value in zip(_HYPOTHESIS_INDEX, hypothesis):
                 if value is not None:
                     s[k] = value
+            # the position that reaches the perceived row 1 in free flight with this velocity
+            s[0:2] = motions[b.uid].positions[1] - h * s[3:5] - INTEGRATOR_C * g * h * h
             guess[b.uid] = s
-        states, cost = _gauss_newton(world, motions, engine, layout is not None, guess, hypothesis)
+        states, cost = _gauss_newton(world, motions, engine, layout is not None, guess, hypothesis, use_state)
         fits.append((sum(c is None for c in hypothesis), states, cost))
     best = {}
     most_free = max(f[0] for f in fits)
@@ -278,32 +257,40 @@ def _extent(spec: BodySpec) -> float:
     return r
 
 
-def _independent_groups(dynamic: Sequence[BodySpec], motions: Mapping[int, Motion], rows: int) -> list[list[int]]:
-    """Greedy colouring of the bodies that may touch each other within ``rows`` rows (bounding circles with a 1 m
-    margin over their perceived paths): bodies of one group can be perturbed in the same run."""
+def _components(dynamic: Sequence[BodySpec], motions: Mapping[int, Motion], rows: int) -> list[list[int]]:
+    """The groups of bodies that may touch each other within ``rows`` rows (bounding circles with a 1 m margin over
+    their perceived paths, closed transitively): each group is fitted jointly, and groups never interact."""
     paths = {b.uid: motions[b.uid].positions[: rows + 1] for b in dynamic}
     reach = {b.uid: _extent(b) + 0.5 for b in dynamic}
-    groups: list[list[int]] = []
-    for b in dynamic:
-        for group in groups:
-            if all(float(np.min(np.hypot(*(paths[b.uid] - paths[o]).T))) > reach[b.uid] + reach[o] for o in group):
-                group.append(b.uid)
-                break
-        else:
-            groups.append([b.uid])
-    return groups
+    parent = {b.uid: b.uid for b in dynamic}
+
+    def root(u: int) -> int:
+        while parent[u] != u:
+            u = parent[u]
+        return u
+
+    uids = [b.uid for b in dynamic]
+    for i, a in enumerate(uids):
+        for b in uids[i + 1:]:
+            if float(np.min(np.hypot(*(paths[a] - paths[b]).T))) <= reach[a] + reach[b]:
+                parent[root(a)] = root(b)
+    groups: dict[int, list[int]] = {}
+    for u in uids:
+        groups.setdefault(root(u), []).append(u)
+    return list(groups.values())
 
 
 def _gauss_newton(world: WorldSpec, motions: Mapping[int, Motion], engine: PhysicsEngine, layout_prior: bool,
-                  guess: Mapping[int, np.ndarray], hypothesis: Hypothesis
+                  guess: Mapping[int, np.ndarray], hypothesis: Hypothesis, use_state: bool = False
                   ) -> tuple[dict[int, np.ndarray], dict[int, float]]:
     """Gauss-Newton on the position, the free components of ``hypothesis`` and (without the layout prior) angle
-    and spin of every body, against the first rows' positions (and angles), from ``guess``.
-    Returns the states and each body's misfit (sum of squares). Bodies that cannot touch each other in these rows
-    are perturbed together (one run per parameter serves a whole group; :func:`_independent_groups`)."""
+    and spin of every body, from ``guess``, against the first rows' positions (and angles), or with ``use_state``
+    against the whole row-1 state (position, angle, velocity, spin).
+    Returns the states and each body's misfit (sum of squares). Bodies that may touch each other are fitted
+    jointly (:func:`_components`); a step is taken with backtracking."""
     dynamic = [b for b in world.bodies if b.dynamic]
     cols = {b.uid: i for i, b in enumerate(world.bodies)}
-    rows = min(fit_rows(motions), min(motions[b.uid].steps for b in dynamic))
+    rows = 1 if use_state else min(fit_rows(motions), min(motions[b.uid].steps for b in dynamic))
     fit_angle = not layout_prior
     index = [0, 1] + [k for k, c in zip(_HYPOTHESIS_INDEX, hypothesis) if c is None] + ([2, 5] if fit_angle else [])
     states = {uid: np.array(s, dtype=np.float64) for uid, s in guess.items()}
@@ -312,48 +299,70 @@ def _gauss_newton(world: WorldSpec, motions: Mapping[int, Motion], engine: Physi
             s[2], s[5] = INITIAL_ANGLE, 0.0
 
     def observed(m: Motion) -> np.ndarray:
+        if use_state:
+            return _motion_state(m, 1)
         parts = [m.positions[1:rows + 1].ravel()] + ([m.angles[1:rows + 1]] if fit_angle else [])
         return np.concatenate(parts)
 
     def simulated(raw: RawRun, uid: int) -> np.ndarray:
+        if use_state:
+            return _row_state(raw, cols[uid], 1)
         t = raw.trajectory
         parts = [t.positions[1:rows + 1, cols[uid]].ravel()] + ([t.angles[1:rows + 1, cols[uid]]] if fit_angle
                                                                else [])
         return np.concatenate(parts)
 
     targets = {b.uid: observed(motions[b.uid]) for b in dynamic}
-    groups = _independent_groups(dynamic, motions, rows)
+    components = _components(dynamic, motions, rows)
+    width = max(len(c) for c in components)
 
     def evaluate(st: Mapping[int, np.ndarray]) -> tuple[RawRun, dict[int, np.ndarray], dict[int, float]]:
         raw = engine.run(_with_states(world, st), rows)
         residual = {b.uid: targets[b.uid] - simulated(raw, b.uid) for b in dynamic}
         return raw, residual, {uid: float(r @ r) for uid, r in residual.items()}
 
+    def group_cost(c: dict[int, float], group: list[int]) -> float:
+        return sum(c[u] for u in group)
+
     base, residual, cost = evaluate(states)
-    for _ in range(SHOOTING_ITERATIONS):
-        if max(cost.values()) < SHOOTING_TOLERANCE ** 2:
+    for _ in range(FIT_ITERATIONS):
+        if max(cost.values()) < FIT_TOLERANCE ** 2:
             break
-        jac = {b.uid: np.empty((targets[b.uid].size, len(index))) for b in dynamic}
-        for group in groups:
+        # Jacobian of each group's residuals w.r.t. all its bodies' parameters; the k-th body of every group is
+        # perturbed in the same run (groups do not interact)
+        jac = {tuple(g): np.zeros((sum(targets[u].size for u in g), len(g) * len(index))) for g in components}
+        for slot in range(width):
             for j, k in enumerate(index):
-                moved = {uid: s.copy() for uid, s in states.items()}
-                for uid in group:
-                    moved[uid][k] += _FD_STEP[k]
+                moved = {uid: st.copy() for uid, st in states.items()}
+                for g in components:
+                    if slot < len(g):
+                        moved[g[slot]][k] += _FD_STEP[k]
                 run = engine.run(_with_states(world, moved), rows)
-                for uid in group:
-                    jac[uid][:, j] = (simulated(run, uid) - simulated(base, uid)) / _FD_STEP[k]
-        trial = {uid: s.copy() for uid, s in states.items()}
-        for b in dynamic:
-            delta, *_ = np.linalg.lstsq(jac[b.uid], residual[b.uid], rcond=None)
-            trial[b.uid][index] += delta
-        run, new_residual, new_cost = evaluate(trial)
-        improved = [b.uid for b in dynamic if new_cost[b.uid] < cost[b.uid]]
-        if not improved:
+                for g in components:
+                    if slot < len(g):
+                        column = np.concatenate([simulated(run, u) - simulated(base, u) for u in g]) / _FD_STEP[k]
+                        jac[tuple(g)][:, slot * len(index) + j] = column
+        deltas = {}
+        for g in components:
+            r = np.concatenate([residual[u] for u in g])
+            step = np.linalg.lstsq(jac[tuple(g)], r, rcond=None)[0].reshape(len(g), len(index))
+            deltas.update({u: step[i] for i, u in enumerate(g)})
+        accepted: dict[int, np.ndarray] = {}
+        for alpha in (1.0, 0.5, 0.25, 0.125):  # backtracking: contacts make the landscape kinked
+            trial = {uid: st.copy() for uid, st in states.items()}
+            for u in states:
+                if u not in accepted:
+                    trial[u][index] += alpha * deltas[u]
+            _, _, trial_cost = evaluate(trial)
+            for g in components:
+                if g[0] not in accepted and group_cost(trial_cost, g) < group_cost(cost, g):
+                    accepted.update({u: trial[u] for u in g})
+            if len(accepted) == len(states):
+                break
+        if not accepted:
             break
-        if len(improved) < len(dynamic):  # keep the steps that helped, re-run the mixture
-            trial = {uid: (trial[uid] if uid in improved else states[uid]) for uid in states}
-            run, new_residual, new_cost = evaluate(trial)
-        states, base, residual, cost = trial, run, new_residual, new_cost
+        states = {uid: accepted.get(uid, st) for uid, st in states.items()}
+        base, residual, cost = evaluate(states)
     return states, cost
 
 

@@ -45,6 +45,10 @@ from .reading import ObjectReading, Reading, most_likely_objects, most_likely_re
 from .schema import PerceivedScene
 from .tracks import Motion, moving_probability, scene_motions, window_for
 
+#: A fitted initial velocity slower than this (m/s, per component) counts as rest: a body touching something in the
+#: first frame fits its first frames as well at rest as drifting by a few millimetres per second.
+START_REST_SPEED = 0.05
+
 EventSource = Literal["auto", "perceived", "derived"]
 CounterfactualMode = Literal["replay", "resimulate"]
 EVENT_SOURCES: tuple[str, ...] = ("auto", "perceived", "derived")
@@ -184,8 +188,10 @@ class SceneModel:
             if obj.moving_start is not None:
                 out[obj.id] = obj.moving_start
             elif obj.id in starts:
-                out[obj.id] = moving_probability(np.asarray(starts[obj.id].velocity),
-                                                 self.motions[obj.id].velocity_sigma)
+                velocity = np.asarray(starts[obj.id].velocity)
+                if np.max(np.abs(velocity)) < START_REST_SPEED:
+                    velocity = np.zeros(2)
+                out[obj.id] = moving_probability(velocity, self.motions[obj.id].velocity_sigma)
             else:
                 out[obj.id] = 0.0
         return out
