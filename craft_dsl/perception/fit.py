@@ -223,7 +223,7 @@ def _fit_hypotheses(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: Phy
     sigma_m = max(m.sigma_px for m in motions.values()) * 50.0 / 256.0
     h = 1.0 / world.steps_per_second
     g = np.asarray(world.gravity)
-    fits: list[tuple[int, dict[int, np.ndarray], dict[int, float]]] = []
+    fits: list[tuple[Hypothesis, dict[int, np.ndarray], dict[int, float]]] = []
     for hypothesis in start_hypotheses(layout):
         if fits and all(min(f[2][b.uid] for f in fits) <= MISFIT_MARGIN for b in dynamic):
             break  # every body already fits (exact tracks): more complex hypotheses cannot be simpler
@@ -236,17 +236,26 @@ def _fit_hypotheses(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: Phy
             # the position that reaches the perceived row 1 in free flight with this velocity
             s[0:2] = motions[b.uid].positions[1] - h * s[3:5] - INTEGRATOR_C * g * h * h
             guess[b.uid] = s
-        states, cost = _gauss_newton(world, motions, engine, layout is not None, guess, hypothesis, use_state)
-        fits.append((sum(c is None for c in hypothesis), states, cost))
-    best = {}
-    most_free = max(f[0] for f in fits)
+        states, cost = _gauss_newton(world, motions, engine, layout is not None, guess,
+                                     {b.uid: hypothesis for b in dynamic}, use_state)
+        fits.append((hypothesis, states, cost))
+    best: dict[int, np.ndarray] = {}
+    chosen: dict[int, Hypothesis] = {}
+    most_free = max(_free(f[0]) for f in fits)
     for b in dynamic:
         lowest = min(f[2][b.uid] for f in fits)
-        for free, states, cost in fits:  # simplest first
-            if cost[b.uid] <= lowest + MISFIT_MARGIN + 9.2 * (most_free - free) * sigma_m ** 2:
-                best[b.uid] = states[b.uid]
+        for hypothesis, states, cost in fits:  # simplest first
+            if cost[b.uid] <= lowest + MISFIT_MARGIN + 9.2 * (most_free - _free(hypothesis)) * sigma_m ** 2:
+                best[b.uid], chosen[b.uid] = states[b.uid], hypothesis
                 break
+    # each hypothesis was fitted on every body at once, and the engine's sub-steps follow the fastest body: polish
+    # the chosen mixture together
+    best, _ = _gauss_newton(world, motions, engine, layout is not None, best, chosen, use_state)
     return replace(pw, world=_with_states(world, best))
+
+
+def _free(hypothesis: Hypothesis) -> int:
+    return sum(c is None for c in hypothesis)
 
 
 def _extent(spec: BodySpec) -> float:
@@ -281,9 +290,9 @@ def _components(dynamic: Sequence[BodySpec], motions: Mapping[int, Motion], rows
 
 
 def _gauss_newton(world: WorldSpec, motions: Mapping[int, Motion], engine: PhysicsEngine, layout_prior: bool,
-                  guess: Mapping[int, np.ndarray], hypothesis: Hypothesis, use_state: bool = False
+                  guess: Mapping[int, np.ndarray], hypotheses: Mapping[int, Hypothesis], use_state: bool = False
                   ) -> tuple[dict[int, np.ndarray], dict[int, float]]:
-    """Gauss-Newton on the position, the free components of ``hypothesis`` and (without the layout prior) angle
+    """Gauss-Newton on the position, the free components of its hypothesis and (without the layout prior) angle
     and spin of every body, from ``guess``, against the first rows' positions (and angles), or with ``use_state``
     against the whole row-1 state (position, angle, velocity, spin).
     Returns the states and each body's misfit (sum of squares). Bodies that may touch each other are fitted
@@ -292,7 +301,8 @@ def _gauss_newton(world: WorldSpec, motions: Mapping[int, Motion], engine: Physi
     cols = {b.uid: i for i, b in enumerate(world.bodies)}
     rows = 1 if use_state else min(fit_rows(motions), min(motions[b.uid].steps for b in dynamic))
     fit_angle = not layout_prior
-    index = [0, 1] + [k for k, c in zip(_HYPOTHESIS_INDEX, hypothesis) if c is None] + ([2, 5] if fit_angle else [])
+    index = {uid: [0, 1] + [k for k, c in zip(_HYPOTHESIS_INDEX, h) if c is None] + ([2, 5] if fit_angle else [])
+             for uid, h in hypotheses.items()}
     states = {uid: np.array(s, dtype=np.float64) for uid, s in guess.items()}
     if layout_prior:
         for s in states.values():
@@ -328,31 +338,35 @@ def _gauss_newton(world: WorldSpec, motions: Mapping[int, Motion], engine: Physi
     for _ in range(FIT_ITERATIONS):
         if max(cost.values()) < FIT_TOLERANCE ** 2:
             break
-        # Jacobian of each group's residuals w.r.t. all its bodies' parameters; the k-th body of every group is
-        # perturbed in the same run (groups do not interact)
-        jac = {tuple(g): np.zeros((sum(targets[u].size for u in g), len(g) * len(index))) for g in components}
+        # Jacobian of each group's residuals w.r.t. all its bodies' parameters; the n-th parameter of the k-th body
+        # of every group is perturbed in the same run (groups do not interact)
+        offsets = {tuple(g): np.cumsum([0] + [len(index[u]) for u in g]) for g in components}
+        jac = {tuple(g): np.zeros((sum(targets[u].size for u in g), int(offsets[tuple(g)][-1]))) for g in components}
         for slot in range(width):
-            for j, k in enumerate(index):
+            for n in range(max(len(index[g[slot]]) for g in components if slot < len(g))):
                 moved = {uid: st.copy() for uid, st in states.items()}
+                perturbed = []
                 for g in components:
-                    if slot < len(g):
+                    if slot < len(g) and n < len(index[g[slot]]):
+                        k = index[g[slot]][n]
                         moved[g[slot]][k] += _FD_STEP[k]
+                        perturbed.append((g, k))
                 run = engine.run(_with_states(world, moved), rows)
-                for g in components:
-                    if slot < len(g):
-                        column = np.concatenate([simulated(run, u) - simulated(base, u) for u in g]) / _FD_STEP[k]
-                        jac[tuple(g)][:, slot * len(index) + j] = column
+                for g, k in perturbed:
+                    column = np.concatenate([simulated(run, u) - simulated(base, u) for u in g]) / _FD_STEP[k]
+                    jac[tuple(g)][:, offsets[tuple(g)][slot] + n] = column
         deltas = {}
         for g in components:
             r = np.concatenate([residual[u] for u in g])
-            step = np.linalg.lstsq(jac[tuple(g)], r, rcond=None)[0].reshape(len(g), len(index))
-            deltas.update({u: step[i] for i, u in enumerate(g)})
+            step = np.linalg.lstsq(jac[tuple(g)], r, rcond=None)[0]
+            off = offsets[tuple(g)]
+            deltas.update({u: step[off[i]:off[i + 1]] for i, u in enumerate(g)})
         accepted: dict[int, np.ndarray] = {}
         for alpha in (1.0, 0.5, 0.25, 0.125):  # backtracking: contacts make the landscape kinked
             trial = {uid: st.copy() for uid, st in states.items()}
             for u in states:
                 if u not in accepted:
-                    trial[u][index] += alpha * deltas[u]
+                    trial[u][index[u]] += alpha * deltas[u]
             _, _, trial_cost = evaluate(trial)
             for g in components:
                 if g[0] not in accepted and group_cost(trial_cost, g) < group_cost(cost, g):
