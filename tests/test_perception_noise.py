@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from perception_helpers import tiny_scene
 
 from craft_dsl.perception import PerceivedEvent, PerceivedObject, PerceivedScene, VideoInfo, check_scene
@@ -116,3 +118,16 @@ def test_noise_knobs_are_validated() -> None:
         NoiseModel(attribute_confusion=1.5)
     with pytest.raises(ValueError):
         NoiseModel(position_sigma_px=-1)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(0, 8), st.floats(0, 1), st.floats(0, 1), st.floats(0, 2), st.integers(0, 5), st.floats(0, 3),
+       st.floats(0, 3), st.integers(0, 2**32 - 1))
+def test_any_degradation_is_a_valid_scene(sigma: float, confusion: float, miss: float, false_alarm: float,
+                                          jitter: int, swaps: float, gaps: float, seed: int) -> None:
+    noise = NoiseModel(position_sigma_px=sigma, attribute_confusion=confusion, event_miss_rate=miss,
+                       event_false_alarm_rate=false_alarm, timing_jitter_frames=jitter, identity_swap_rate=swaps,
+                       gap_rate=gaps)
+    out = degrade(tiny_scene(), noise, seed)
+    assert check_scene(out)[1] == []
+    assert {o.id for o in out.objects} == {o.id for o in tiny_scene().objects}
