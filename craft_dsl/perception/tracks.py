@@ -14,9 +14,10 @@ For each track:
    the engine's integrator: pymunk advances a frame in ``n`` sub-steps, each moving the position with the
    current velocity and then accelerating (x += v dt; v += a dt), so under a constant acceleration ``a`` the
    velocity at row r is ``p'(r) - (c - 1/2) a h`` with ``c = (n-1)/(2n)`` and ``h = 1/60 s``, exact for free
-   flight (``n = 8``, the engine's minimum, is assumed). Windows end at the
-   row because a body's velocity just before something happens to it is what a re-simulation needs;
-5. row 0, the initial state, is never in a video: it is extrapolated here (constant acceleration) and fitted by
+   flight; ``n`` follows the engine's sub-step rule for the fastest body of the previous frame. Windows end at
+   the row because a body's velocity just before something happens to it is what a re-simulation needs;
+5. a noisy track's last state is judged by the slope of a straight line over its last :data:`END_ROWS` rows;
+6. row 0, the initial state, is never in a video: it is extrapolated here (constant acceleration) and fitted by
    :mod:`craft_dsl.perception.fit`.
 """
 
