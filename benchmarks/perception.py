@@ -87,12 +87,22 @@ def _fresh(sim: LiveSimulation) -> LiveSimulation:
     return LiveSimulation(sim.world_spec, sim.raw, sim.engine, meta=dict(sim.meta))
 
 
+def _ids(values: Any) -> list[int]:
+    """Every object id in (nested tuples of) trace values: the candidates a counterfactual module removed."""
+    out: list[int] = []
+    for v in values:
+        if isinstance(v, tuple):
+            out += _ids(v)
+        elif isinstance(v, int) and not isinstance(v, bool):
+            out.append(v)
+    return out
+
+
 def _cause(sim: LiveSimulation, world: Any, program: Program, truth: Any, seed: int) -> str:
     """Why an exact-perception answer differs from the truth."""
     if world.moving(0) != sim.moving(0) or world.moving(-1) != sim.moving(-1):
         return "moving at the start or end judged differently"
-    removed = sorted({e.value for e in program.trace(sim)
-                      if isinstance(e.value, int) and not isinstance(e.value, bool)} & set(sim.dynamic_ids))
+    removed = sorted(set(_ids(e.value for e in program.trace(sim))) & set(sim.dynamic_ids))
     differs = any(sorted((e.type, e.step, e.objects) for e in sim.counterfactual(u).events)
                   != sorted((e.type, e.step, tuple(sorted(e.objects, reverse=True))) for e in world.counterfactual(
                       u).events) for u in removed)
