@@ -1,38 +1,51 @@
-"""Compiling a checked program into a flat plan and running it over a simulation.
+"""Running checked programs (:mod:`craft_dsl.ir` nodes) over a simulation.
 
-Shared sub-expressions (a ``Var`` used twice, or the same call written twice) compile to one slot and
-are evaluated once per run. Only what the final expression needs is evaluated (an unused binding costs
-nothing, and no counterfactual is simulated unless asked for). INVALID propagates: a module that
-receives INVALID returns INVALID without being called.
+A :class:`Plan` is the node list turned into instructions: literal nodes become constant slots, module nodes
+become ``slots[i] = impl(sim, *slots[inputs], *side_values)`` in node order. Shared sub-expressions are one
+node, so they are evaluated once per run; only what the answer needs is a node at all, so an unused binding
+costs nothing and no counterfactual is simulated unless asked for. INVALID propagates: a module that
+receives INVALID returns INVALID without being called. Whether a module can produce INVALID is read from its
+registry entry, and the check is made only where INVALID can arrive.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from .registry import REGISTRY, Impl
+from .ir import Node
+from .registry import IMPLS, MAY_INVALIDATE, REGISTRY, Impl
 from .simulation import Simulation
-from .syntax import Call, Expr, Literal, Ref, Tree, format_expr
 from .types import INVALID, DslType
 
-#: Modules that may return INVALID on valid input.
-_MAY_INVALIDATE = frozenset({"Unique", "FilterFirst", "FilterLast", "EventPartner"})
+#: A plan run this many times is compiled into one Python function (see :meth:`Plan.compile`).
+COMPILE_AFTER_RUNS = 16
+#: One instruction: ``fn(sim, slots)`` computes a node's value from the slots of its inputs.
+Thunk = Callable[[Simulation, list[Any]], Any]
 
 
-@dataclass(frozen=True)
-class Step:
-    """One instruction: ``slots[out] = impl(sim, *slots[inputs])``."""
-
-    impl: Impl
-    inputs: tuple[int, ...]
-    out: int
-    check_invalid: bool
+def _thunk(impl: Impl, inputs: tuple[int, ...], values: tuple[Any, ...]) -> Thunk:
+    """The instruction of one node, specialised by its number of inputs and side inputs (a call with the
+    arguments written out is several times cheaper than one that builds and unpacks an argument list)."""
+    if not values:
+        if not inputs:
+            return lambda sim, s: impl(sim)
+        if len(inputs) == 1:
+            (a,) = inputs
+            return lambda sim, s: impl(sim, s[a])
+        if len(inputs) == 2:
+            a, b = inputs
+            return lambda sim, s: impl(sim, s[a], s[b])
+    elif len(inputs) == 1 and len(values) == 1:
+        (a,), (v,) = inputs, values
+        return lambda sim, s: impl(sim, s[a], v)
+    return lambda sim, s: impl(sim, *[s[i] for i in inputs], *values)
 
 
 @dataclass(frozen=True)
 class TraceEntry:
-    """The value of one node of a program run."""
+    """The value of one node of a program run (``slot`` is the node's index in the checked program)."""
 
     slot: int
     expression: str
@@ -41,70 +54,137 @@ class TraceEntry:
 
 
 class Plan:
-    """A compiled program: constant slots, then instructions in dependency order."""
+    """A compiled program: constant slots, then one instruction per needed module node in dependency order.
 
-    def __init__(self, tree: Tree, types: dict[Expr, DslType]) -> None:
-        self.constants: list[Any] = []
-        self.steps: list[Step] = []
-        self.texts: list[str] = []
-        self.slot_types: list[DslType | None] = []
-        self._memo: dict[tuple[Any, ...], int] = {}
-        self._may_invalid: set[int] = set()
-        self._bindings = {b.name: b.expr for b in tree.bindings}
-        self._types = types
-        self.result = self._emit(tree.body)
-        self.result_type = self.slot_types[self.result]
+    Built from checked nodes in any dependency order and the answer's node ``root``; nodes the answer does not
+    need are skipped. A node that receives INVALID is INVALID without being called (so which nodes run does
+    not depend on the order the nodes were written in); the inputs are tested only where INVALID can arrive.
 
-    def _new_slot(self, text: str, typ: DslType | None, value: Any = None) -> int:
-        self.constants.append(value)
-        self.texts.append(text)
-        self.slot_types.append(typ)
-        return len(self.constants) - 1
+    Execution is tiered, because a program scored once must be cheap and a program run often must be fast:
+    the first run interprets the nodes, later runs use one specialised instruction per node, and from
+    :data:`COMPILE_AFTER_RUNS` runs on the program is one generated Python function.
+    """
 
-    def _emit(self, expr: Expr) -> int:
-        if isinstance(expr, Ref):
-            return self._emit(self._bindings[expr.name])
-        if isinstance(expr, Literal):
-            key: tuple[Any, ...] = ("literal", expr.value)
-            if key not in self._memo:
-                typ = DslType.INTEGER if isinstance(expr.value, int) else None
-                self._memo[key] = self._new_slot(format_expr(expr), typ, expr.value)
-            return self._memo[key]
-        assert isinstance(expr, Call)
-        inputs = tuple(self._emit(a) for a in expr.args)
-        key = ("call", expr.module, inputs)
-        if key in self._memo:
-            return self._memo[key]
-        text = f"{expr.module}({', '.join(self.texts[i] for i in inputs)})"
-        out = self._new_slot(text, self._types.get(expr))
-        check = any(i in self._may_invalid for i in inputs)
-        if check or expr.module in _MAY_INVALIDATE:
-            self._may_invalid.add(out)
-        self.steps.append(Step(REGISTRY[expr.module].impl, inputs, out, check))
-        self._memo[key] = out
-        return out
+    __slots__ = ("nodes", "root", "constants", "order", "steps", "result_type", "runs", "_fast")
+
+    def __init__(self, nodes: Sequence[Node], root: int | None = None) -> None:
+        root = len(nodes) - 1 if root is None else root
+        self.nodes = nodes
+        self.root = root
+        needed = [False] * len(nodes)
+        needed[root] = True
+        for i in range(root, -1, -1):
+            if needed[i]:
+                for j in nodes[i].inputs:
+                    needed[j] = True
+        constants: list[Any] = [None] * len(nodes)
+        order: list[tuple[int, tuple[int, ...]]] = []
+        may_invalid = [False] * len(nodes)
+        for i in range(root + 1):
+            if not needed[i]:
+                continue
+            node = nodes[i]
+            if node.module is None:
+                constants[i] = node.values[0]
+                continue
+            check: tuple[int, ...] = ()
+            for j in node.inputs:
+                if may_invalid[j]:
+                    check += (j,)
+            may_invalid[i] = bool(check) or node.module in MAY_INVALIDATE
+            order.append((i, check))
+        self.constants = constants
+        self.order = order
+        self.steps: tuple[tuple[Thunk, int, tuple[int, ...]], ...] | None = None
+        self.result_type = nodes[root].type
+        self.runs = 0
+        self._fast: Callable[[Simulation], Any] | None = None
 
     def run(self, sim: Simulation) -> Any:
-        slots = list(self.constants)
-        for step in self.steps:
-            if step.check_invalid:
-                args = [slots[i] for i in step.inputs]
-                if any(a is INVALID for a in args):
-                    slots[step.out] = INVALID
-                    continue
-                slots[step.out] = step.impl(sim, *args)
+        if self._fast is not None:
+            return self._fast(sim)
+        self.runs += 1
+        if self.runs == 1:
+            return self._interpret(sim)
+        if self.runs >= COMPILE_AFTER_RUNS:
+            self._fast = self.compile()
+        steps = self.steps
+        if steps is None:
+            nodes = self.nodes
+            steps = self.steps = tuple([
+                (_thunk(IMPLS[nodes[i].module], nodes[i].inputs, nodes[i].values), i, check)  # type: ignore[index]
+                for i, check in self.order])
+        slots = self.constants[:]
+        for fn, out, check in steps:
+            if check:
+                for i in check:
+                    if slots[i] is INVALID:
+                        slots[out] = INVALID
+                        break
+                else:
+                    slots[out] = fn(sim, slots)
             else:
-                slots[step.out] = step.impl(sim, *[slots[i] for i in step.inputs])
-        return slots[self.result]
+                slots[out] = fn(sim, slots)
+        return slots[self.root]
 
-    def trace(self, sim: Simulation) -> list[TraceEntry]:
-        slots = list(self.constants)
-        entries = []
-        for step in self.steps:
-            args = [slots[i] for i in step.inputs]
-            value = INVALID if any(a is INVALID for a in args) else step.impl(sim, *args)
-            slots[step.out] = value
-            typ = self.slot_types[step.out]
-            assert typ is not None
-            entries.append(TraceEntry(step.out, self.texts[step.out], typ, value))
-        return entries
+    def _interpret(self, sim: Simulation) -> Any:
+        """One run without building instructions (the cheapest way to run a program once)."""
+        slots = self.constants[:]
+        nodes = self.nodes
+        for out, check in self.order:
+            if check:
+                for i in check:
+                    if slots[i] is INVALID:
+                        break
+                else:
+                    check = ()
+                if check:
+                    slots[out] = INVALID
+                    continue
+            node = nodes[out]
+            impl = IMPLS[node[0]]  # type: ignore[index]
+            inputs = node[1]
+            if not inputs:
+                slots[out] = impl(sim, *node[2])
+            elif len(inputs) == 1:
+                slots[out] = impl(sim, slots[inputs[0]], *node[2])
+            else:
+                slots[out] = impl(sim, *[slots[i] for i in inputs], *node[2])
+        return slots[self.root]
+
+    def compile(self) -> Callable[[Simulation], Any]:
+        """The program as one Python function (no per-node dispatch); costs about as much as a few hundred
+        runs of the plan, so :meth:`run` switches to it only for programs run often."""
+        names: dict[str, Any] = {"INVALID": INVALID}
+        lines = ["def run(sim):"]
+        for i, check in self.order:
+            node = self.nodes[i]
+            spec = REGISTRY[node.module]  # type: ignore[index]
+            names[f"f{i}"] = spec.impl
+            args = ["sim", *(f"c{j}" if self.nodes[j].module is None else f"s{j}" for j in node.inputs)]
+            names.update({f"c{j}": self.nodes[j].values[0] for j in node.inputs if self.nodes[j].module is None})
+            for k, value in enumerate(node.values):
+                names[f"v{i}_{k}"] = value
+                args.append(f"v{i}_{k}")
+            call = f"f{i}({', '.join(args)})"
+            if check:
+                invalid = " or ".join(f"s{j} is INVALID" for j in check)
+                lines.append(f"    s{i} = INVALID if {invalid} else {call}")
+            else:
+                lines.append(f"    s{i} = {call}")
+        lines.append(f"    return s{self.root}" if self.nodes[self.root].module else f"    return c{self.root}")
+        names[f"c{self.root}"] = self.constants[self.root]
+        namespace: dict[str, Any] = {}
+        exec(compile("\n".join(lines), "<craft_dsl plan>", "exec"), names, namespace)
+        fn: Callable[[Simulation], Any] = namespace["run"]
+        return fn
+
+    def values(self, sim: Simulation) -> list[Any]:
+        """The value of every node (None for nodes the answer does not need), in node order; nodes with an
+        INVALID input are INVALID."""
+        slots = self.constants[:]
+        for out, _check in self.order:
+            module, inputs, values = self.nodes[out][:3]
+            slots[out] = INVALID if any(slots[i] is INVALID for i in inputs) else \
+                IMPLS[module](sim, *[slots[i] for i in inputs], *values)  # type: ignore[index]
+        return slots

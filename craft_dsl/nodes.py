@@ -1,134 +1,145 @@
-"""CLEVR/CRAFT node lists <-> syntax trees.
+"""CLEVR/CRAFT node lists <-> checked programs.
 
 A node list is a JSON list; node k has ``type`` (module name), ``inputs`` (indexes of earlier nodes)
 and ``side_inputs`` or ``value_inputs`` (literal values, or template placeholders such as ``<Z>``).
 The last node is the answer. Nodes the answer does not depend on (the templates' unused
 ``start_scene`` node 0) are dropped. Export writes the original names and argument order.
+Errors name the node (``node 3``) as well as what is wrong.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, NoReturn
 
-from .checker import resolve_module
+from .checker import CheckedProgram, ProgramBuilder, arity_error, resolve_module
 from .errors import NodeListError, ProgramError
-from .registry import REGISTRY
-from .syntax import Call, Expr, Literal, Ref, Tree, format_expr
-from .types import DslType
+from .ir import Node, node_texts
+from .registry import NAMES, REGISTRY
+
+_EMPTY: tuple[()] = ()
 
 
-def _side_values(node: Mapping[str, Any], k: int, params: Mapping[str, str]) -> list[str | int]:
+def _side_values(node: Mapping[str, Any], k: int, params: Mapping[str, str] | None) -> list[Any]:
     raw = node.get("side_inputs")
     if raw is None:
-        raw = node.get("value_inputs", [])
-    if not isinstance(raw, list):
-        raise NodeListError(f"node {k}: side_inputs/value_inputs must be a list, found {type(raw).__name__}")
-    values: list[str | int] = []
+        raw = node.get("value_inputs", _EMPTY)
+    if not isinstance(raw, (list, tuple)):
+        raise NodeListError(f"side_inputs/value_inputs must be a list, found {type(raw).__name__}",
+                            location=f"node {k}", index=k)
+    values: list[Any] = []
     for v in raw:
         if isinstance(v, str) and v.startswith("<") and v.endswith(">"):
-            if v not in params:
+            if params is None or v not in params:
+                bound = ", ".join(params or ()) or "none"
                 raise NodeListError(
-                    f"node {k} ({node.get('type')}): placeholder {v} is not bound; pass params={{{v!r}: ...}}"
-                    f" (bound: {', '.join(params) or 'none'})"
+                    f"{node.get('type')}: placeholder {v} is not bound; pass params={{{v!r}: ...}} (bound: {bound})",
+                    location=f"node {k}", index=k,
                 )
             v = params[v]
         if not isinstance(v, (str, int)) or isinstance(v, bool):
-            raise NodeListError(f"node {k}: side input {v!r} must be a string")
+            raise NodeListError(f"side input {v!r} must be a string", location=f"node {k}", index=k)
         values.append(v)
     return values
 
 
-def tree_from_nodes(nodes: Sequence[Mapping[str, Any]], params: Mapping[str, str] | None = None) -> Tree:
-    """Build the syntax tree of a node list (names and orders mapped to the canonical ones)."""
-    params = dict(params or {})
+def check_nodes(nodes: Sequence[Mapping[str, Any]], params: Mapping[str, str] | None = None) -> CheckedProgram:
+    """Check a node list (original or canonical names and orders) into canonical nodes."""
     if not isinstance(nodes, Sequence) or isinstance(nodes, (str, bytes)) or not nodes:
         raise NodeListError("a node list must be a non-empty list of nodes")
-    built: list[Expr] = []
+    builder = ProgramBuilder()
+    call = builder.call
+    spec_of = NAMES.get
+    built: list[int] = []
     for k, node in enumerate(nodes):
-        if not isinstance(node, Mapping) or "type" not in node:
-            raise NodeListError(f"node {k}: must be an object with a 'type' field, found {node!r}")
-        name = node["type"]
-        if not isinstance(name, str):
-            raise NodeListError(f"node {k}: 'type' must be a string, found {name!r}")
         try:
-            spec = resolve_module(name, None)
-        except ProgramError as err:
-            raise NodeListError(f"node {k}: {err.message}") from None
-        inputs = node.get("inputs", [])
-        if not isinstance(inputs, list) or not all(isinstance(i, int) and not isinstance(i, bool) for i in inputs):
-            raise NodeListError(f"node {k} ({name}): 'inputs' must be a list of node indexes, found {inputs!r}")
-        for i in inputs:
-            if not 0 <= i < k:
-                raise NodeListError(
-                    f"node {k} ({name}): input {i} does not name an earlier node (allowed 0..{k - 1})"
-                )
-        n_inputs = len(spec.overloads[0].inputs)
-        if len(inputs) != n_inputs:
-            raise NodeListError(
-                f"node {k} ({name}): {spec.name} takes {n_inputs} input node(s), found {len(inputs)}"
-            )
-        args = [built[i] for i in inputs]
+            name = node["type"]
+            inputs = node.get("inputs", _EMPTY)
+            spec = spec_of(name)
+        except (TypeError, KeyError, AttributeError):
+            raise NodeListError(f"must be an object with a 'type' field, found {node!r}",
+                                location=f"node {k}", index=k) from None
+        if spec is None:
+            _unknown_module(name, k)
+        args = []
+        try:
+            for i in inputs:
+                if type(i) is not int or not 0 <= i < k:
+                    _bad_inputs(name, inputs, k)
+                args.append(built[i])
+        except TypeError:
+            _bad_inputs(name, inputs, k)
+        if len(args) != spec.n_inputs:
+            raise NodeListError(f"{name}: {spec.name} takes {spec.n_inputs} input node(s), found {len(args)}",
+                                location=f"node {k}", index=k)
         if spec.original_order is not None and name != spec.name:
-            reordered: list[Expr] = [args[0]] * n_inputs
-            for original_pos, ours in enumerate(spec.original_order):
-                reordered[ours] = args[original_pos]
-            args = reordered
-        sides = [Literal(v) for v in _side_values(node, k, params)]
-        built.append(Call(name, tuple(args) + tuple(sides)))
-    return Tree((), built[-1])
+            args = [args[j] for j in _inverse(spec.original_order)]
+        if spec.side_inputs:
+            sides = node.get("value_inputs") or node.get("side_inputs") or _EMPTY
+        else:
+            sides = node.get("value_inputs") or node.get("side_inputs") or _EMPTY if len(node) > 2 else _EMPTY
+        if sides or spec.side_inputs:
+            if params is not None or type(sides) is not list or not all([type(v) is str and v[:1] != "<"
+                                                                             for v in sides]):
+                sides = _side_values(node, k, params)
+            if len(sides) != len(spec.side_inputs):
+                raise arity_error(spec, len(args) + len(sides), ("node", k))
+        built.append(call(spec, args, sides, ("node", k)))
+    return builder.finish(built[-1], built)
 
 
-def nodes_from_tree(tree: Tree) -> list[dict[str, Any]]:
-    """Node list of a checked tree; each node also has ``_text`` (its expression) for the caller."""
-    bindings = {b.name: b.expr for b in tree.bindings}
-    nodes: list[dict[str, Any]] = []
-    memo: dict[Expr, int] = {}
+def _inverse(order: tuple[int, ...]) -> tuple[int, ...]:
+    """Original positions -> ours: ``ours[order[p]] = original[p]``."""
+    out = [0] * len(order)
+    for original_pos, ours in enumerate(order):
+        out[ours] = original_pos
+    return tuple(out)
 
-    def inline(expr: Expr) -> Expr:
-        if isinstance(expr, Ref):
-            return inline(bindings[expr.name])
-        if isinstance(expr, Call):
-            return Call(expr.module, tuple(inline(a) for a in expr.args))
-        return Literal(expr.value)
 
-    def emit(expr: Expr) -> int:
-        assert isinstance(expr, Call)
-        if expr in memo:
-            return memo[expr]
-        spec = REGISTRY[expr.module]
-        n_inputs = len(spec.overloads[0].inputs)
-        arg_types = []
-        inputs = []
-        for a in expr.args[:n_inputs]:
-            if isinstance(a, Literal):
+def _unknown_module(name: Any, k: int) -> NoReturn:
+    if not isinstance(name, str):
+        raise NodeListError(f"'type' must be a string, found {name!r}", location=f"node {k}", index=k)
+    try:
+        resolve_module(name, ("node", k))
+    except ProgramError as err:
+        raise NodeListError(err.message, location=f"node {k}", index=k) from None
+    raise AssertionError("resolve_module accepted an unknown name")  # pragma: no cover
+
+
+def _bad_inputs(name: Any, inputs: Any, k: int) -> NoReturn:
+    if not isinstance(inputs, (list, tuple)) or not all(type(i) is int for i in inputs):
+        raise NodeListError(f"{name}: 'inputs' must be a list of node indexes, found {inputs!r}",
+                            location=f"node {k}", index=k)
+    bad = next(i for i in inputs if not 0 <= i < k)
+    raise NodeListError(f"{name}: input {bad} does not name an earlier node (allowed 0..{k - 1})",
+                        location=f"node {k}", index=k)
+
+
+def nodes_from_checked(nodes: Sequence[Node]) -> list[dict[str, Any]]:
+    """The node list of checked nodes (original names and argument order); each node also has ``_text``
+    (its expression) and ``_node`` (its index in ``nodes``) for the caller."""
+    out: list[dict[str, Any]] = []
+    position: dict[int, int] = {}
+    texts = node_texts(nodes)
+    for i, node in enumerate(nodes):
+        if node.module is None:
+            continue
+        spec = REGISTRY[node.module]
+        for j in node.inputs:
+            if nodes[j].module is None:
                 raise NodeListError(
-                    f"{spec.name}: the literal {format_expr(a)} has no node-list form; the original format "
-                    "only allows literal colours, shapes and sizes"
+                    f"{spec.name}: the literal {texts[j]} has no node-list form; the original format only "
+                    "allows literal colours, shapes and sizes as side inputs"
                 )
-            inputs.append(emit(a))
-            arg_types.append(nodes[inputs[-1]]["_type"])
-        overload = next(ov for ov in spec.overloads if list(ov.inputs) == arg_types)
+        overload = spec.overloads[node.overload]
         if overload.original is None:
             raise NodeListError(f"{spec.name} has no equivalent in the original engine")
+        inputs = [position[j] for j in node.inputs]
         if spec.original_order is not None:
-            inputs = [inputs[i] for i in spec.original_order]
-        sides = [a.value for a in expr.args[n_inputs:] if isinstance(a, Literal)]
-        nodes.append({
-            "type": overload.original,
-            "inputs": inputs,
-            "value_inputs": sides,
-            "_type": overload.output,
-            "_text": format_expr(expr),
-        })
-        memo[expr] = len(nodes) - 1
-        return memo[expr]
-
-    body = inline(tree.body)
-    if not isinstance(body, Call):
+            inputs = [inputs[j] for j in spec.original_order]
+        position[i] = len(out)
+        out.append({"type": overload.original, "inputs": inputs, "value_inputs": list(node.values),
+                    "_text": texts[i], "_node": i})
+    if not out or nodes[-1].module is None:
         raise NodeListError("a program whose answer is a literal has no node-list form")
-    emit(body)
-    for node in nodes:
-        t = node.pop("_type")
-        assert isinstance(t, DslType)
-    return nodes
+    return out

@@ -243,7 +243,7 @@ def load_simulation(source: str | os.PathLike[str] | Mapping[str, Any]) -> Simul
                     f"{where}: variations_outputs has key {key!r}, which is not an object id of the scene "
                     f"(ids: {list(sim.all_ids)})"
                 )
-            sim._cf_cache[int(key)] = _variation(output, int(key), objects, where)
+            sim.provide_counterfactual(int(key), _variation(output, int(key), objects, where))
     return sim
 
 

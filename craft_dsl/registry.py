@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from . import semantics as sem
@@ -41,6 +41,13 @@ class ModuleSpec:
     aliases: tuple[str, ...] = ()
     #: Original node input order as indexes into our inputs (None = same order).
     original_order: tuple[int, ...] | None = None
+    #: Whether the module can return INVALID on valid inputs (Unique of a set whose size is not 1, ...).
+    may_invalidate: bool = False
+    #: Number of inputs (side inputs not counted); derived from the overloads.
+    n_inputs: int = field(init=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "n_inputs", len(self.overloads[0].inputs))
 
     @property
     def arity(self) -> int:
@@ -56,9 +63,9 @@ class ModuleSpec:
 
 def _m(name: str, inputs: tuple[T, ...], output: T, impl: Impl, description: str, category: str,
        original: str | None, side_inputs: tuple[T, ...] = (), aliases: tuple[str, ...] = (),
-       original_order: tuple[int, ...] | None = None) -> ModuleSpec:
+       original_order: tuple[int, ...] | None = None, may_invalidate: bool = False) -> ModuleSpec:
     return ModuleSpec(name, (Overload(inputs, output, original),), impl, description, category,
-                      side_inputs, aliases or ((original,) if original else ()), original_order)
+                      side_inputs, aliases or ((original,) if original else ()), original_order, may_invalidate)
 
 
 _OS, _O, _OSL = T.OBJECT_SET, T.OBJECT, T.OBJECT_SET_LIST
@@ -92,7 +99,7 @@ MODULES: tuple[ModuleSpec, ...] = (
        "Objects not moving in the given state (static ones included).", "objects",
        "filter_stationary_objects"),
     _m("Unique", (_OS,), _O, sem.unique, "The single object of a set; INVALID unless the set has one.",
-       "objects", "unique"),
+       "objects", "unique", may_invalidate=True),
     _m("AsList", (_O,), _OS, sem.as_list, "The set holding just this object.", "objects", "as_list"),
     # queries
     _m("QueryColor", (_O,), T.COLOR, sem.query_color, "Colour of an object.", "query", "query_color"),
@@ -155,16 +162,16 @@ MODULES: tuple[ModuleSpec, ...] = (
     _m("FilterAfter", (_ES, _E), _ES, sem.filter_after, "Events strictly after the reference event's step.",
        "events", "filter_after"),
     _m("FilterFirst", (_ES,), _E, sem.filter_first, "The earliest event; INVALID for an empty set.",
-       "events", "filter_first"),
+       "events", "filter_first", may_invalidate=True),
     _m("FilterLast", (_ES,), _E, sem.filter_last, "The latest event; INVALID for an empty set.", "events",
-       "filter_last"),
+       "filter_last", may_invalidate=True),
     _m("IsBefore", (_E, _E), _B, sem.is_before, "Whether the first event's step is strictly earlier.",
        "events", "is_before"),
     _m("IsAfter", (_E, _E), _B, sem.is_after, "Whether the first event's step is strictly later.",
        "events", "is_after"),
     _m("EventPartner", (_E, _O), _O, sem.event_partner,
        "The other object of a two-object event; INVALID if the object is not in it.", "events",
-       "event_partner", original_order=(1, 0)),
+       "event_partner", original_order=(1, 0), may_invalidate=True),
     _m("FilterObjectsFromEvents", (_ES,), _OS, sem.filter_objects_from_events,
        "Objects taking part in any of the events (static partners included).", "events",
        "filter_objects_from_events"),
@@ -179,6 +186,10 @@ MODULES: tuple[ModuleSpec, ...] = (
 
 #: Canonical name -> spec.
 REGISTRY: dict[str, ModuleSpec] = {m.name: m for m in MODULES}
+#: Canonical name -> implementation (the evaluator's hot path).
+IMPLS: dict[str, Impl] = {m.name: m.impl for m in MODULES}
+#: Canonical names of the modules that can return INVALID on valid inputs.
+MAY_INVALIDATE: frozenset[str] = frozenset(m.name for m in MODULES if m.may_invalidate)
 #: Any accepted name (canonical or alias) -> spec.
 NAMES: dict[str, ModuleSpec] = {**{a: m for m in MODULES for a in m.aliases}, **REGISTRY}
 

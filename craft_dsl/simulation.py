@@ -11,13 +11,13 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-import networkx as nx
-import numpy as np
-
 from .errors import CounterfactualUnavailable, EvaluationError, SimulationFileError
 from .vocabulary import END, MOVING_THRESHOLD, START
 
 if TYPE_CHECKING:
+    import networkx as nx
+    import numpy as np
+
     from .world import WorldSpec
 
 
@@ -109,6 +109,8 @@ def causal_graph_from_events(events: Sequence[Event], dynamic_ids: Iterable[int]
     last event of every body that has any event. Static bodies never carry causality forward. Events
     are taken in (step, id) order, so "latest" is by step (the original used its insertion order).
     """
+    import networkx as nx  # a causal graph is built only when asked for: keep `import craft_dsl` light
+
     dynamic = set(dynamic_ids)
     graph = nx.DiGraph()
     start = next((e for e in events if e.type == START), None)
@@ -202,6 +204,14 @@ class Simulation:
             frozenset(o.id for o in self.objects if o.is_moving(0)),
             frozenset(o.id for o in self.objects if o.is_moving(-1)),
         )
+        #: Values derived from this simulation's own event list, memoised by the module semantics.
+        self.memo: dict[Any, Any] = {}
+        # Event lists owned by this simulation or its counterfactuals, by identity (see owner_of).
+        self._event_lists: dict[int, Simulation] = {id(self.events): self}
+        #: Object id -> colour, shape, size (read-only).
+        self.color_of: dict[int, str] = {o.id: o.color for o in self.objects}
+        self.shape_of: dict[int, str] = {o.id: o.shape for o in self.objects}
+        self.size_of: dict[int, str] = {o.id: o.size for o in self.objects}
 
     def _single(self, shape: str, required: bool) -> int:
         found = [o.id for o in self.objects if o.shape == shape]
@@ -263,8 +273,24 @@ class Simulation:
                 "'simulation with variations' file or use a live simulator"
             )
         sim = self._counterfactuals(object_id)
-        self._cf_cache[object_id] = sim
+        self.provide_counterfactual(object_id, sim)
         return sim
+
+    def owner_of(self, events: tuple[Event, ...]) -> Simulation | None:
+        """The simulation (this one or one of its counterfactuals) whose whole event list ``events`` is, or
+        None for any other event set."""
+        owner = self._event_lists.get(id(events))
+        return owner if owner is not None and owner.events is events else None
+
+    def provide_counterfactual(self, object_id: int, sim: Simulation) -> None:
+        """Store the run without ``object_id`` computed ahead (a recorded file's variation)."""
+        if object_id not in self._by_id:
+            raise CounterfactualUnavailable(
+                f"cannot store a counterfactual for object {object_id}: it is not in this simulation "
+                f"(ids: {list(self.all_ids)})"
+            )
+        self._cf_cache[object_id] = sim
+        self._event_lists[id(sim.events)] = sim
 
     def describe(self, object_id: int) -> str:
         o = self.object(object_id)

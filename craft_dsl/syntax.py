@@ -51,12 +51,25 @@ class Tree:
 
 
 def format_expr(expr: Expr) -> str:
-    """Canonical one-line text of an expression."""
-    if isinstance(expr, Call):
-        return f"{expr.module}({', '.join(format_expr(a) for a in expr.args)})"
-    if isinstance(expr, Literal):
-        return f'"{expr.value}"' if isinstance(expr.value, str) else str(expr.value)
-    return expr.name
+    """Canonical one-line text of an expression (iterative: any depth)."""
+    out: list[str] = []
+    stack: list[Expr | str] = [expr]
+    while stack:
+        item = stack.pop()
+        if isinstance(item, str):
+            out.append(item)
+        elif isinstance(item, Call):
+            stack.append(")")
+            for k in range(len(item.args) - 1, -1, -1):
+                stack.append(item.args[k])
+                if k:
+                    stack.append(", ")
+            out.append(f"{item.module}(")
+        elif isinstance(item, Literal):
+            out.append(f'"{item.value}"' if isinstance(item.value, str) else str(item.value))
+        else:
+            out.append(item.name)
+    return "".join(out)
 
 
 def format_tree(tree: Tree) -> str:

@@ -1,0 +1,369 @@
+"""Evaluating a model's predictions against the oracle: per question, per paper category, per module.
+
+For every question of a CRAFT-format dataset (``dataset.json`` with its programs and recorded answers, and
+``annotations.json`` with the simulations), the oracle reads what the model predicted and reports:
+
+* the **program**'s outcome (syntax error, type error, INVALID, answer), whether it is exactly the
+  ground-truth program (same checked nodes, whatever the form), and whether the answer it gives on the true
+  simulation is the recorded one (*execution accuracy*);
+* whether the predicted **answer** is the recorded one;
+* for a **trace**, the first node whose output differs from the oracle's and the agreement per module;
+* for an **answer distribution**, whether its mode is right, the log-likelihood of the recorded answer and the
+  Brier score.
+
+Rates are over every question of the group (a question without the field counts as wrong), so that a model
+cannot score by answering only what it is sure of; the counts say how many questions carried each field.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ..errors import CraftError
+from ..program import Program
+from ..simulation import Simulation
+from ..templates import templates
+from ..verify.annotations import Annotations, open_annotations
+from ..verify.answers import answers_agree, normalise_answer
+from ..verify.categories import CATEGORIES, FAMILIES, category_of
+from ..verify.formats import PathLike, Question, parse_questions, read_questions
+from .forms import ProgramCache, detect_form
+from .outcome import OUTCOMES, ProgramOutcome, check_outcome, run_outcome
+from .predictions import MISSING, Prediction, collect_predictions
+from .traces import TraceComparison, compare_trace
+
+#: Probabilities are floored here before taking logarithms (a zero probability would give minus infinity).
+PROBABILITY_FLOOR = 1e-12
+
+
+@dataclass
+class QuestionResult:
+    """Everything the oracle found for one question."""
+
+    key: tuple[int, int]
+    template_id: str
+    predicted: bool = False
+    outcome: ProgramOutcome | None = None
+    exact_match: bool | None = None
+    execution_correct: bool | None = None
+    answer_correct: bool | None = None
+    trace: TraceComparison | None = None
+    #: Why a given trace was not compared (its program did not check).
+    trace_skipped: str | None = None
+    mode_correct: bool | None = None
+    log_likelihood: float | None = None
+    brier: float | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"key": f"{self.key[0]}_{self.key[1]}", "template_id": self.template_id,
+                               "predicted": self.predicted}
+        if self.outcome is not None:
+            out["program"] = self.outcome.to_json()
+            out["exact_match"] = self.exact_match
+            out["execution_correct"] = self.execution_correct
+        if self.answer_correct is not None:
+            out["answer_correct"] = self.answer_correct
+        if self.trace is not None:
+            out["trace"] = self.trace.to_json()
+        if self.trace_skipped:
+            out["trace_skipped"] = self.trace_skipped
+        if self.mode_correct is not None:
+            out["distribution"] = {"mode_correct": self.mode_correct, "log_likelihood": self.log_likelihood,
+                                   "brier": self.brier}
+        return out
+
+
+@dataclass
+class Metrics:
+    """Counts over a group of questions; rates are read from them (over all questions of the group)."""
+
+    questions: int = 0
+    predicted: int = 0
+    programs: int = 0
+    outcomes: dict[str, int] = field(default_factory=lambda: dict.fromkeys(OUTCOMES, 0))
+    exact_match: int = 0
+    execution_correct: int = 0
+    answers: int = 0
+    answer_correct: int = 0
+    traces: int = 0
+    trace_nodes: int = 0
+    trace_agreed: int = 0
+    traces_fully_agreeing: int = 0
+    distributions: int = 0
+    mode_correct: int = 0
+    log_likelihood: float = 0.0
+    brier: float = 0.0
+
+    def add(self, r: QuestionResult) -> None:
+        self.questions += 1
+        self.predicted += r.predicted
+        if r.outcome is not None:
+            self.programs += 1
+            self.outcomes[r.outcome.kind] += 1
+            self.exact_match += bool(r.exact_match)
+            self.execution_correct += bool(r.execution_correct)
+        if r.answer_correct is not None:
+            self.answers += 1
+            self.answer_correct += r.answer_correct
+        if r.trace is not None:
+            self.traces += 1
+            self.trace_nodes += r.trace.compared
+            self.trace_agreed += r.trace.agreed
+            self.traces_fully_agreeing += r.trace.first_divergence is None
+        if r.mode_correct is not None:
+            self.distributions += 1
+            self.mode_correct += r.mode_correct
+            self.log_likelihood += r.log_likelihood or 0.0
+            self.brier += r.brier or 0.0
+
+    def _pct(self, n: int, of: int | None = None) -> float | None:
+        of = self.questions if of is None else of
+        return 100.0 * n / of if of else None
+
+    @property
+    def validity(self) -> float | None:
+        """Share of questions whose predicted program parses and type-checks."""
+        return self._pct(self.outcomes["invalid"] + self.outcomes["answer"])
+
+    @property
+    def exact_match_rate(self) -> float | None:
+        return self._pct(self.exact_match)
+
+    @property
+    def execution_accuracy(self) -> float | None:
+        return self._pct(self.execution_correct)
+
+    @property
+    def answer_accuracy(self) -> float | None:
+        return self._pct(self.answer_correct)
+
+    @property
+    def trace_agreement(self) -> float | None:
+        """Share of the compared trace nodes whose output agrees with the oracle's."""
+        return self._pct(self.trace_agreed, self.trace_nodes)
+
+    @property
+    def mode_accuracy(self) -> float | None:
+        """Share of the questions with an answer distribution whose mode is the recorded answer."""
+        return self._pct(self.mode_correct, self.distributions)
+
+    @property
+    def mean_log_likelihood(self) -> float | None:
+        return self.log_likelihood / self.distributions if self.distributions else None
+
+    @property
+    def mean_brier(self) -> float | None:
+        return self.brier / self.distributions if self.distributions else None
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "questions": self.questions, "predicted": self.predicted, "programs": self.programs,
+            "outcomes": dict(self.outcomes), "exact_match": self.exact_match,
+            "execution_correct": self.execution_correct, "answers": self.answers,
+            "answer_correct": self.answer_correct, "traces": self.traces, "trace_nodes": self.trace_nodes,
+            "trace_agreed": self.trace_agreed, "traces_fully_agreeing": self.traces_fully_agreeing,
+            "distributions": self.distributions, "mode_correct": self.mode_correct,
+            "rates": {"program_validity": self.validity, "exact_match": self.exact_match_rate,
+                      "execution_accuracy": self.execution_accuracy, "answer_accuracy": self.answer_accuracy,
+                      "trace_agreement": self.trace_agreement, "mode_accuracy": self.mode_accuracy,
+                      "mean_log_likelihood": self.mean_log_likelihood, "mean_brier": self.mean_brier},
+        }
+
+
+@dataclass
+class EvaluationReport:
+    """The result of :func:`evaluate_predictions`."""
+
+    results: list[QuestionResult] = field(default_factory=list)
+    overall: Metrics = field(default_factory=Metrics)
+    per_family: dict[str, Metrics] = field(default_factory=lambda: {f: Metrics() for f in FAMILIES})
+    per_category: dict[str, Metrics] = field(default_factory=dict)
+    per_template: dict[str, Metrics] = field(default_factory=dict)
+    #: Trace agreement per module: name -> [nodes compared, nodes agreeing].
+    per_module: dict[str, list[int]] = field(default_factory=dict)
+    #: Fields of prediction records that are not read, with the number of records carrying each.
+    unknown_fields: dict[str, int] = field(default_factory=dict)
+    outside_split: int = 0
+
+    def add(self, r: QuestionResult) -> None:
+        self.results.append(r)
+        from ..verify.categories import family_of
+
+        for m in (self.overall, self.per_family[family_of(r.template_id)],
+                  self.per_category.setdefault(category_of(r.template_id), Metrics()),
+                  self.per_template.setdefault(r.template_id, Metrics())):
+            m.add(r)
+        if r.trace is not None:
+            for module, (compared, agreed) in r.trace.per_module.items():
+                counts = self.per_module.setdefault(module, [0, 0])
+                counts[0] += compared
+                counts[1] += agreed
+
+    def groups(self) -> list[tuple[str, Metrics]]:
+        """Overall, the paper's columns and its sub-categories, in table order (groups without questions left out)."""
+        out = [("All", self.overall)] + [(f, self.per_family[f]) for f in FAMILIES if self.per_family[f].questions]
+        return out + [(c, self.per_category[c]) for c in CATEGORIES if c in self.per_category]
+
+    def to_json(self, per_question: bool = False) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "overall": self.overall.to_json(),
+            "groups": {name: m.to_json() for name, m in self.groups()},
+            "per_template": {t: self.per_template[t].to_json() for t in templates() if t in self.per_template},
+            "per_module": {m: {"compared": c, "agreed": a, "agreement": 100.0 * a / c if c else None}
+                           for m, (c, a) in sorted(self.per_module.items())},
+            "unknown_fields": dict(self.unknown_fields), "outside_split": self.outside_split,
+        }
+        if per_question:
+            out["questions"] = [r.to_json() for r in self.results]
+        return out
+
+    def format(self, per_template: bool = False, failures: int = 10) -> str:
+        """A plain-text report: overview, the per-category table, trace agreement per module, first failures."""
+        from .report import format_report
+
+        return format_report(self, per_template, failures)
+
+
+def _questions(dataset: PathLike | Sequence[Any]) -> tuple[list[Question], Path | None]:
+    if isinstance(dataset, (str, os.PathLike)):
+        p = Path(dataset)
+        if p.is_dir():
+            if not (p / "dataset.json").is_file():
+                raise CraftError(f"{p}: directory holds no dataset.json")
+            return read_questions(p / "dataset.json"), p
+        return read_questions(p), p.parent
+    items = list(dataset)
+    if items and all(isinstance(q, Question) for q in items):
+        return items, None
+    return parse_questions(items, "dataset"), None
+
+
+def _annotations(annotations: Any, folder: Path | None) -> Annotations:
+    if annotations is not None:
+        return open_annotations(annotations)
+    if folder is not None and (folder / "annotations.json").is_file():
+        return open_annotations(folder / "annotations.json")
+    raise CraftError("no annotations given: pass annotations.json (or a directory of <id6>.json simulations); "
+                     "it is looked up beside dataset.json by default")
+
+
+def score_distribution(dist: Mapping[str, float], recorded: Any) -> tuple[bool, float, float]:
+    """Mode correct, log-likelihood of the recorded answer (natural log, probabilities floored at
+    :data:`PROBABILITY_FLOOR`) and the Brier score (sum over answers of (p - [answer is recorded])^2)."""
+    truth = normalise_answer(recorded)
+    mode = max(sorted(dist), key=lambda a: dist[a])
+    p_true = dist.get(truth, 0.0)
+    brier = sum((p - (a == truth)) ** 2 for a, p in dist.items()) + (0.0 if truth in dist else 1.0)
+    return mode == truth, math.log(max(p_true, PROBABILITY_FLOOR)), brier
+
+
+def evaluate_predictions(
+    dataset: PathLike | Sequence[Any],
+    predictions: PathLike | Mapping[Any, Any] | Sequence[Any] | Iterable[Prediction],
+    annotations: PathLike | Mapping[str, Any] | Annotations | None = None,
+    *,
+    split: Iterable[tuple[int, int]] | None = None,
+    token_order: str = "prefix",
+    progress: Callable[[int], None] | None = None,
+) -> EvaluationReport:
+    """Evaluate predictions (answers, programs in any form, traces, answer distributions) against the oracle.
+
+    ``dataset``: ``dataset.json``, a folder holding it (and ``annotations.json``), its parsed list, or
+    :class:`~craft_dsl.verify.Question` records. ``annotations``: ``annotations.json``, a folder of ``<id6>.json``
+    simulations, a mapping or an :class:`~craft_dsl.verify.Annotations` (default: beside ``dataset.json``).
+    ``predictions``: a ``.json``/``.jsonl`` path or parsed predictions (see :mod:`craft_dsl.oracle.predictions`).
+    ``split``: the keys to evaluate (others are counted in ``outside_split``). ``token_order``: how lists of
+    strings without ``program_format`` are read. Bad input raises :class:`~craft_dsl.errors.CraftError` naming
+    the file, record and field; nothing a program does at run time does.
+    """
+    if token_order not in ("prefix", "postfix"):
+        raise CraftError(f"token order must be 'prefix' or 'postfix', not {token_order!r}")
+    questions, folder = _questions(dataset)
+    preds = collect_predictions(predictions)
+    known = {q.key for q in questions}
+    unknown = [p for k, p in preds.items() if k not in known]
+    if unknown:
+        shown = ", ".join(f"{p.key[0]}_{p.key[1]}" for p in unknown[:5])
+        raise CraftError(f"{unknown[0].where}: {len(unknown)} prediction(s) name questions the dataset does not "
+                         f"have ({shown}{' ...' if len(unknown) > 5 else ''})")
+    selected = set(split) if split is not None else None
+    report = EvaluationReport()
+    for p in preds.values():
+        for name in p.unknown_fields:
+            report.unknown_fields[name] = report.unknown_fields.get(name, 0) + 1
+    needs_sim = any(p.program is not MISSING or p.trace is not MISSING for p in preds.values())
+    store = _annotations(annotations, folder) if needs_sim else None
+    cache = ProgramCache()
+    by_video: dict[tuple[int, str], list[Question]] = {}
+    for q in questions:
+        if selected is not None and q.key not in selected:
+            report.outside_split += 1
+            continue
+        by_video.setdefault((q.video_index, q.video), []).append(q)
+    for (video_index, video), group in by_video.items():
+        sims: list[Simulation] = []
+
+        def sim_of(video: str = video, video_index: int = video_index, sims: list[Simulation] = sims) -> Simulation:
+            if not sims:
+                assert store is not None
+                key = store.resolve(video, video_index)
+                if key is None:
+                    raise CraftError(f"{store.name}: no simulation for video {video!r} (video_index {video_index})")
+                sims.append(store.simulation(key))
+            return sims[0]
+
+        for q in group:
+            report.add(_evaluate_one(q, preds.get(q.key), sim_of, cache, token_order))
+        if progress is not None:
+            progress(len(group))
+    return report
+
+
+def _evaluate_one(q: Question, pred: Prediction | None, sim_of: Callable[[], Simulation], cache: ProgramCache,
+                  token_order: str) -> QuestionResult:
+    result = QuestionResult(q.key, q.template_id, predicted=pred is not None)
+    if pred is None:
+        return result
+    checked: Program | None = None
+    if pred.program is not MISSING:
+        where = f"{pred.where}, field 'program'"
+        try:
+            form = pred.program_format or detect_form(pred.program, token_order)
+        except CraftError as err:
+            raise CraftError(f"{where}: {err}") from None
+        if q.program is None:
+            raise CraftError(f"{q.where}: the record has no program to compare with (dataset_minimal.json records "
+                             "cannot be evaluated; use dataset.json)")
+        try:
+            truth = cache.get(list(q.program), "nodes")
+        except CraftError as err:
+            raise CraftError(f"{q.where}, field 'program': cannot read the ground-truth program: {err}") from None
+        outcome, checked = check_outcome(pred.program, form, cache)  # type: ignore[arg-type]
+        if checked is not None:
+            outcome = run_outcome(checked, sim_of(), form)  # type: ignore[arg-type]
+        assert outcome is not None
+        result.outcome = outcome
+        result.exact_match = checked is not None and checked.key == truth.key
+        result.execution_correct = outcome.kind == "answer" and answers_agree(outcome.answer, q.answer)
+    if pred.answer is not MISSING:
+        result.answer_correct = answers_agree(pred.answer, q.answer)
+    if pred.trace is not MISSING:
+        if pred.program is not MISSING and checked is None:
+            result.trace_skipped = "the predicted program does not check, so its trace has no nodes to compare"
+        else:
+            target = checked if checked is not None else _truth(q, cache)
+            result.trace = compare_trace(target, sim_of(), pred.trace, f"{pred.where}, field 'trace'")
+    if pred.distribution is not None:
+        result.mode_correct, result.log_likelihood, result.brier = score_distribution(pred.distribution, q.answer)
+    return result
+
+
+def _truth(q: Question, cache: ProgramCache) -> Program:
+    if q.program is None:
+        raise CraftError(f"{q.where}: the record has no program, so a trace cannot be compared")
+    return cache.get(list(q.program), "nodes")
