@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+from collections.abc import Sequence
 from typing import Any
 
 
@@ -113,3 +114,14 @@ class QuestionParseError(CraftError):
         self.word_index = word_index
         self.found = found
         self.expected = expected
+
+
+class PerceptionError(CraftError):
+    """A perceived scene is malformed or cannot be executed; the message names the object, frame and field.
+
+    ``problems`` lists every defect found (each with ``object``, ``frame``, ``field`` and ``message``).
+    """
+
+    def __init__(self, message: str, problems: Sequence[Any] = ()) -> None:
+        super().__init__(message)
+        self.problems: list[Any] = list(problems)
