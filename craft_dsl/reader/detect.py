@@ -37,6 +37,8 @@ GRID = 2
 #: Blobs smaller than this many grid pixels are noise (pupil rims read as gray; the smallest body, a small circle,
 #: covers about 20).
 MIN_GRID_AREA = 4
+#: A colour's part of a piece holding other colours too counts only from this many grid pixels.
+MIN_MIXED_AREA = 10
 _TIME_SEPARATE = np.zeros((3, 3, 3), dtype=bool)
 _TIME_SEPARATE[1] = ndi.generate_binary_structure(2, 2)
 
@@ -101,7 +103,11 @@ def blobs(labels: np.ndarray) -> list[Blob]:
     color = labels[t, y, x].astype(np.int64)
     key = piece * WHITE + color  # one entry per (piece, colour)
     counts = np.bincount(key)
-    present = np.nonzero(counts >= MIN_GRID_AREA)[0]
+    # in a piece of several colours, a small part is the rim of an eye or of a neighbour, not a body
+    piece_total = np.bincount(piece)
+    owner = np.arange(counts.size) // WHITE
+    mixed = piece_total[np.minimum(owner, piece_total.size - 1)] > counts
+    present = np.nonzero((counts >= MIN_GRID_AREA) & (~mixed | (counts >= MIN_MIXED_AREA)))[0]
     if present.size == 0:
         return []
     sums_x = np.bincount(key, x)[present]
