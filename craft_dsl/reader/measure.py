@@ -66,7 +66,8 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
     if labels is None:
         labels = lookup(window)
     # the antialiased rims of black statics read as gray: a body colour counts only over a flat background
-    core = (labels == color) & clean_background(background)
+    clean = clean_background(background)
+    core = (labels == color) & clean
     if not core.any():
         return None
     closed = ndi.binary_closing(np.pad(core, CLOSING_RADIUS), structure=_CLOSING)[
@@ -89,7 +90,9 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
     denom = np.maximum((cb * cb).sum(-1), 1.0)
     proj = ((window.astype(np.float32) - b) * cb).sum(-1) / denom
     eyes = (labels == WHITE) | (labels == BLACK)
-    other = (labels >= 0) & (labels < WHITE) & (labels != color)
+    # another body's colour (compression rings of statics reach a pixel or two beyond their drawn rims)
+    other = (labels >= 0) & (labels < WHITE) & (labels != color) & ndi.binary_erosion(clean, iterations=2,
+                                                                                       border_value=1)
     alpha = interior.astype(np.float32)
     rim_ok = rim & ~other & ~(eyes & filled)
     alpha[rim_ok] = np.clip(proj[rim_ok], 0.0, 1.0)
@@ -114,6 +117,6 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
     else:
         eye_x = eye_y = None
     border = filled[0].any() or filled[-1].any() or filled[:, 0].any() or filled[:, -1].any()
-    cut = bool((ndi.binary_dilation(filled) & other).sum() > 2)
+    cut = bool((ndi.binary_dilation(filled, iterations=2) & ~filled & other).sum() > 2)
     return Measurement(area, cx + origin[1], cy + origin[0], mxx, mxy, myy, radius, eye_x, eye_y,
                        not border and not cut)

@@ -1,0 +1,351 @@
+"""Analysis by synthesis: the simulation whose rendering is the video.
+
+A CRAFT video is a deterministic function of its layout's random draws and its objects' attributes. Once the layout
+and its statics are known (:mod:`craft_dsl.reader.layout`) and the bodies tracked (:mod:`craft_dsl.reader.track`),
+what is left is a handful of numbers per body: the draws of its slot's start (position, velocity). They are fitted
+by running the physics engine itself:
+
+1. **Slots.** Each tracked body is given one of the layout's dynamic slots (Hungarian assignment): the cost is how
+   far its first sighting lies from the slot's start region, plus the log-probability that its (shape, size) is
+   one the slot allows. The slot fixes the creation order, hence the uniqueIDs and the engine's body order.
+2. **Start.** Gauss-Newton (finite differences, backtracking, each draw kept within its range) on the slots' start
+   draws, against the measured centroids of the first :data:`START_FRAMES` frames. The measurement model is the
+   body's centre plus its eye bias rotated by its simulated angle (:data:`EYE_BIAS`): the colour mask of a small
+   body misses the part its eyes cover. A choice draw (a launch speed out of a list) is tried option by option.
+3. **Check.** The whole run is simulated from the fitted start and compared with the tracks in every frame; while a
+   body strays by more than :data:`STRAY_PX`, the start is refitted on all frames up to just before it strays (the
+   longer window pins the start down further), at most :data:`REFITS` times.
+
+What comes out is a live simulation (:class:`~craft_dsl.physics.live.LiveSimulation`): events from the engine's
+contact log, counterfactuals by clean re-simulation, exactly as for the ground truth. Where chaotic contacts make the
+run stray from the video even from the best start, it is kept as it is and the stray is reported.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from ..physics.engine import PhysicsEngine
+from ..physics.live import LiveSimulation, get_engine
+from ..render.raster import world_to_pixel
+from ..scenes import Choice, Uniform
+from ..world import WorldSpec
+from .layout_model import Attributes, LayoutModel
+from .track import TrackedObject
+
+#: Frames of the first start fit.
+START_FRAMES = 40
+#: Gauss-Newton iterations of a start fit.
+FIT_ITERATIONS = 8
+#: A body straying further than this from its track (pixels, in a frame where it is seen alone) triggers a refit.
+STRAY_PX = 2.0
+#: Refits on longer windows before the run is accepted as it is.
+REFITS = 3
+#: Measured centroid minus the body's centre, in the body's frame (pixels, x right and y up at angle 0): the colour
+#: mask misses what the eyes cover (calibrated on generated MPEG-1 videos; large bodies have none to speak of).
+EYE_BIAS: dict[tuple[str, str], tuple[float, float]] = {
+    ("circle", "large"): (0.0, 0.0),
+    ("circle", "small"): (0.0, 1.88),
+    ("cube", "large"): (0.0, 0.0),
+    ("cube", "small"): (0.0, 2.26),
+    ("triangle", "large"): (0.0, 0.0),
+    ("triangle", "small"): (0.0, 0.32),
+}
+_FD = 1e-5
+
+
+@dataclass
+class Reconstruction:
+    """The fitted simulation and how well it follows the video."""
+
+    simulation: LiveSimulation
+    values: dict[str, float]
+    slots: list[int]  # slot of each tracked object
+    attributes: list[Attributes]  # per slot
+    stray_px: dict[int, float] = field(default_factory=dict)  # uid -> largest distance from its track (pixels)
+    first_stray: dict[int, int] = field(default_factory=dict)  # uid -> first frame beyond STRAY_PX
+    fit_frames: int = 0
+    refits: int = 0
+
+
+def _observations(obj: TrackedObject, frames: int) -> np.ndarray:
+    """[frames, 2] coarse centroid per frame (NaN where not seen alone, or cut by the frame border)."""
+    out = np.full((frames, 2), np.nan)
+    for k, b in enumerate(obj.blobs[:frames]):
+        if b is not None and not b.touches_edge:
+            m = obj.measurements.get(k)
+            if m is not None and m.complete:
+                out[k] = (m.x, m.y)
+            elif m is None:
+                out[k] = (b.x, b.y)
+    return out
+
+
+def _slot_region(model: LayoutModel, values: Mapping[str, float], slot: int) -> tuple[np.ndarray, np.ndarray]:
+    """Low and high corner (metres) of a slot's start position given the static draws."""
+    lo = np.zeros(2)
+    hi = np.zeros(2)
+    fields = model.evaluate(values)
+    bounds = model.bounds(values)
+    for axis in range(2):
+        path = f"dynamic[{slot}].position[{axis}]"
+        if path in bounds:
+            lo[axis], hi[axis] = bounds[path]
+        else:
+            lo[axis] = hi[axis] = fields[path]
+    return lo, hi
+
+
+def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Sequence[TrackedObject]) -> list[int]:
+    """The slot of each object (see the module docstring); objects beyond the slots get -1."""
+    n_slots = len(model.layout.dynamic)
+    cost = np.zeros((len(objects), n_slots))
+    from ..perception.coords import to_metres
+
+    for i, obj in enumerate(objects):
+        seen = obj.seen()
+        first = seen[0] if seen else 0
+        b = obj.blobs[first]
+        pos = np.array(to_metres(b.x, b.y, 256), dtype=float) if b is not None else np.array([0.0, 60.0])
+        for s in range(n_slots):
+            lo, hi = _slot_region(model, values, s)
+            if first > 0:  # entered later (from above the picture, or hidden at first): only x is comparable
+                gap = np.array([max(lo[0] - pos[0], 0.0, pos[0] - hi[0]), 0.0])
+            else:
+                gap = np.maximum(np.maximum(lo - pos, 0.0), pos - hi)
+            allowed = sum(p for (shape, size), p in obj.shape_size.items()
+                          if model.slot_allows(s, (shape, obj.color_name, size)))
+            cost[i, s] = float(np.hypot(*gap)) - 3.0 * math.log(max(allowed, 1e-6))
+    rows, cols = linear_sum_assignment(cost)
+    out = [-1] * len(objects)
+    for r, c in zip(rows, cols):
+        out[int(r)] = int(c)
+    return out
+
+
+def slot_attributes(model: LayoutModel, objects: Sequence[TrackedObject], slots: Sequence[int]) -> list[Attributes]:
+    """(shape, colour, size) per slot: each object's most likely (shape, size) that its slot allows and no other
+    object of the scene has (the triples are unique)."""
+    n_slots = len(model.layout.dynamic)
+    out: list[Attributes | None] = [None] * n_slots
+    used: set[Attributes] = set()
+    order = sorted(range(len(objects)), key=lambda i: -max(objects[i].shape_size.values(), default=0.0))
+    for i in order:
+        s = slots[i]
+        if s < 0:
+            continue
+        obj = objects[i]
+        ranked = sorted(obj.shape_size.items(), key=lambda kv: -kv[1])
+        for (shape, size), _p in ranked:
+            triple = (shape, obj.color_name, size)
+            if triple not in used and model.slot_allows(s, triple):
+                out[s] = triple
+                used.add(triple)
+                break
+        else:
+            shape, size = obj.best()
+            out[s] = (shape, obj.color_name, size)
+    for s in range(n_slots):  # a slot no object was seen for: any allowed triple (the body never showed up)
+        if out[s] is None:
+            slot = model.layout.dynamic[s]
+            out[s] = (slot.shape if slot.shape != "random" else "cube", slot.color if slot.color != "random" else
+                      "gray", slot.size if slot.size != "random" else "small")
+    return [t for t in out if t is not None]
+
+
+class StartFit:
+    """Least-squares fit of the start draws against the measured centroids."""
+
+    def __init__(self, model: LayoutModel, static_values: Mapping[str, float], attributes: Sequence[Attributes],
+                 observed: Mapping[int, np.ndarray], engine: PhysicsEngine, size: int = 256) -> None:
+        self.model = model
+        self.static_values = dict(static_values)
+        self.attributes = list(attributes)
+        self.observed = observed  # slot -> [frames, 2] pixels (NaN: unseen)
+        self.engine = engine
+        self.size = size
+        n = len(model.layout.dynamic)
+        self.uids = [n - 1 - s for s in range(n)]  # slot s gets uid n-1-s (last slot, uid 0)
+        self.paths = [d.path for d in model.draws if d.path.startswith("dynamic") and isinstance(d.quantity,
+                                                                                                  Uniform)]
+        self.choices = [d for d in model.draws if d.path.startswith("dynamic") and isinstance(d.quantity, Choice)]
+
+    def values(self, units: np.ndarray, choice: Mapping[str, float]) -> dict[str, float]:
+        unit = {p: float(u) for p, u in zip(self.paths, units)}
+        base = dict(self.static_values)
+        out = self.model.from_unit({**{p: self._unit_of(p, v) for p, v in base.items()}, **unit})
+        out.update(choice)
+        return out
+
+    def _unit_of(self, path: str, value: float) -> float:
+        lo, hi = self.model.bounds(self.static_values)[path]
+        return 0.5 if hi == lo else (value - lo) / (hi - lo)
+
+    def world(self, units: np.ndarray, choice: Mapping[str, float]) -> WorldSpec:
+        return self.model.world(self.values(units, choice), self.attributes)
+
+    def predicted(self, world: WorldSpec, frames: int) -> dict[int, np.ndarray]:
+        """slot -> [frames, 2] predicted measured centroid (pixels) over the first ``frames`` frames."""
+        raw = self.engine.run(world, frames)
+        traj = raw.trajectory
+        out = {}
+        for s, uid in enumerate(self.uids):
+            col = traj.column(uid)
+            pos = traj.positions[1:frames + 1, col]
+            ang = traj.angles[1:frames + 1, col]
+            shape, _color, size = self.attributes[s]
+            bx, by = EYE_BIAS.get((shape, size), (0.0, 0.0))
+            px, py = world_to_pixel(pos[:, 0], pos[:, 1], self.size)  # type: ignore[arg-type]
+            c, sn = np.cos(ang), np.sin(ang)
+            # body-frame bias (y up) rotated by the angle, then to pixel axes (y down)
+            out[s] = np.stack([np.asarray(px) + c * bx - sn * by, np.asarray(py) - (sn * bx + c * by)], axis=1)
+        return out
+
+    def residual(self, units: np.ndarray, choice: Mapping[str, float], frames: int) -> np.ndarray:
+        pred = self.predicted(self.world(units, choice), frames)
+        parts = []
+        for s, obs in self.observed.items():
+            o = obs[:frames]
+            ok = ~np.isnan(o[:, 0])
+            parts.append((pred[s][ok] - o[ok]).ravel())
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def fit(self, frames: int, start: np.ndarray | None = None) -> tuple[np.ndarray, dict[str, float], float]:
+        """Best units, choice values and RMS residual (pixels) on the first ``frames`` frames."""
+        options = [{}] if not self.choices else [
+            {d.path: v for d, v in zip(self.choices, combo)}
+            for combo in _product([d.quantity.options for d in self.choices])]  # type: ignore[union-attr]
+        best: tuple[np.ndarray, dict[str, float], float] | None = None
+        for choice in options:
+            units = np.full(len(self.paths), 0.5) if start is None else start.copy()
+            units, cost = self._gauss_newton(units, choice, frames)
+            if best is None or cost < best[2]:
+                best = (units, choice, cost)
+        assert best is not None
+        r = self.residual(best[0], best[1], frames)
+        return best[0], best[1], float(np.sqrt(np.mean(r * r))) if r.size else 0.0
+
+    def _gauss_newton(self, units: np.ndarray, choice: Mapping[str, float], frames: int) -> tuple[np.ndarray, float]:
+        r = self.residual(units, choice, frames)
+        cost = float(r @ r)
+        for _ in range(FIT_ITERATIONS):
+            if not self.paths:
+                break
+            jac = np.empty((r.size, len(self.paths)))
+            for j in range(len(self.paths)):
+                du = units.copy()
+                du[j] += _FD if du[j] + _FD <= 1.0 else -_FD
+                jac[:, j] = (self.residual(du, choice, frames) - r) / (du[j] - units[j])
+            live = np.any(jac != 0, axis=0)
+            step = np.zeros(len(self.paths))
+            if live.any():
+                step[live] = np.linalg.lstsq(jac[:, live], -r, rcond=None)[0]
+            improved = False
+            for alpha in (1.0, 0.5, 0.25, 0.1, 0.03):
+                trial = np.clip(units + alpha * step, 0.0, 1.0)
+                rt = self.residual(trial, choice, frames)
+                ct = float(rt @ rt)
+                if ct < cost:
+                    units, r, cost, improved = trial, rt, ct, True
+                    break
+            if not improved or float(np.max(np.abs(step))) < 1e-7:
+                break
+        return units, cost
+
+
+def _product(options: Sequence[Sequence[float]]) -> list[tuple[float, ...]]:
+    out: list[tuple[float, ...]] = [()]
+    for opts in options:
+        out = [o + (v,) for o in out for v in opts]
+    return out
+
+
+def _initial_units(fit: StartFit) -> np.ndarray:
+    """Start positions from the first sightings (the middle of the range for the rest)."""
+    from ..perception.coords import to_metres
+
+    units = np.full(len(fit.paths), 0.5)
+    bounds = fit.model.bounds(fit.static_values)
+    for j, path in enumerate(fit.paths):
+        if ".position[" not in path:
+            continue
+        slot = int(path.split("[", 1)[1].split("]", 1)[0])
+        axis = int(path.rsplit("[", 1)[1][0])
+        obs = fit.observed.get(slot)
+        if obs is None:
+            continue
+        seen = np.nonzero(~np.isnan(obs[:, 0]))[0]
+        if seen.size == 0 or (seen[0] > 0 and axis == 1):
+            continue
+        x, y = to_metres(obs[seen[0], 0], obs[seen[0], 1], fit.size)
+        value = float(x if axis == 0 else y)
+        lo, hi = bounds[path]
+        units[j] = 0.5 if hi == lo else float(np.clip((value - lo) / (hi - lo), 0.0, 1.0))
+    return units
+
+
+def stray(sim: LiveSimulation, fit: StartFit, frames: int) -> tuple[dict[int, float], dict[int, int]]:
+    """Per uid: the largest distance (pixels) between the run and its track, and the first frame beyond STRAY_PX."""
+    traj = sim.raw.trajectory
+    worst: dict[int, float] = {}
+    first: dict[int, int] = {}
+    pred = {}
+    for s, uid in enumerate(fit.uids):
+        col = traj.column(uid)
+        pos = traj.positions[1:frames + 1, col]
+        ang = traj.angles[1:frames + 1, col]
+        shape, _color, size = fit.attributes[s]
+        bx, by = EYE_BIAS.get((shape, size), (0.0, 0.0))
+        px, py = world_to_pixel(pos[:, 0], pos[:, 1], fit.size)  # type: ignore[arg-type]
+        c, sn = np.cos(ang), np.sin(ang)
+        pred[s] = np.stack([np.asarray(px) + c * bx - sn * by, np.asarray(py) - (sn * bx + c * by)], axis=1)
+    for s, obs in fit.observed.items():
+        uid = fit.uids[s]
+        d = np.hypot(*(pred[s][:len(obs)] - obs[:frames]).T)
+        ok = ~np.isnan(d)
+        worst[uid] = float(np.max(d[ok])) if ok.any() else 0.0
+        over = np.nonzero(ok & (d > STRAY_PX))[0]
+        # a single frame over (a blob merged with a neighbour's rim) is not a stray: two in a row are
+        runs = over[1:][np.diff(over) == 1] if over.size > 1 else np.zeros(0, dtype=int)
+        if runs.size:
+            first[uid] = int(runs[0] - 1)
+    return worst, first
+
+
+def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
+                frames: int, steps: int = 600, engine: str | PhysicsEngine = "pymunk",
+                measure: Callable[[TrackedObject, range], None] | None = None) -> Reconstruction:
+    """The simulation of a video (see the module docstring). ``measure(obj, frames)`` adds full-resolution
+    measurements of those frames to ``obj`` (the fit windows use them; elsewhere the blob centroids do)."""
+    eng = get_engine(engine)
+    slots = assign_slots(model, static_values, objects)
+    attributes = slot_attributes(model, objects, slots)
+    observed = {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}
+    fit = StartFit(model, static_values, attributes, observed, eng)
+    window = min(START_FRAMES, frames)
+    units, choice, _rms = fit.fit(window, _initial_units(fit))
+    refits = 0
+    while True:
+        world = fit.world(units, choice)
+        sim = LiveSimulation(world, eng.run(world, steps), eng, meta={"scene": model.scene_id,
+                                                                     "source": "reconstructed from video"})
+        worst, first = stray(sim, fit, frames)
+        if not first or refits >= REFITS:
+            break
+        earliest = min(first.values())
+        if earliest <= window:
+            break
+        window = max(window + 10, earliest - 2)
+        if measure is not None:
+            for obj, s in zip(objects, slots):
+                if s >= 0:
+                    measure(obj, range(window))
+                    fit.observed[s] = _observations(obj, frames)
+        units, choice, _rms = fit.fit(window, units)
+        refits += 1
+    return Reconstruction(sim, fit.values(units, choice), slots, attributes, worst, first, window, refits)
