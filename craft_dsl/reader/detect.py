@@ -5,8 +5,8 @@ black statics and a light-grey basket sensor, so detection is colour arithmetic,
 
 1. **Colour lookup.** Every pixel of a half-resolution grid is classified by a lookup table over RGB quantised to 5
    bits per channel: the nearest palette colour if within :data:`COLOR_RADIUS` (MPEG artefacts and antialiased
-   edges fall outside and stay unlabelled), built once. Pixels where the static background is not a flat colour
-   (the antialiased rims of statics, whose greys would read as "gray") are left out.
+   edges fall outside and stay unlabelled), built once. Where the static background is not a flat colour (the
+   antialiased rims of statics, whose greys would read as "gray") gray is not read.
 2. **Blobs.** Connected pieces of each body colour, per frame (one labelling call over the whole video), with their
    grid area and centroid: a :class:`Blob`. Two touching bodies of one colour make one blob; the tracker
    (:mod:`craft_dsl.reader.track`) notices it by its area.
@@ -31,14 +31,17 @@ COLOR_RADIUS = 60.0
 #: Palette rows: the 8 body colours (indices 0-7 as in ``COLORS``), then white, black and the sensor grey.
 PALETTE = np.array([COLOR_RGB[c] for c in COLORS] + [(255, 255, 255), (0, 0, 0), SENSOR_GREY], dtype=np.float32)
 WHITE, BLACK, SENSOR = len(COLORS), len(COLORS) + 1, len(COLORS) + 2
+GRAY = COLORS.index("gray")
 UNLABELLED = -1
 #: The grid step of the colour lookup (pixels).
 GRID = 2
 #: Blobs smaller than this many grid pixels are noise (pupil rims read as gray; the smallest body, a small circle,
 #: covers about 20).
 MIN_GRID_AREA = 4
-#: A colour's part of a piece holding other colours too counts only from this many grid pixels.
+#: A colour's part of a piece holding other colours too counts only from this many grid pixels, or this share of
+#: the piece (the eyes' rims of a small body read as other colours).
 MIN_MIXED_AREA = 10
+MIN_MIXED_SHARE = 0.35
 _TIME_SEPARATE = np.zeros((3, 3, 3), dtype=bool)
 _TIME_SEPARATE[1] = ndi.generate_binary_structure(2, 2)
 
@@ -85,7 +88,9 @@ def clean_background(background: np.ndarray) -> np.ndarray:
 def grid_labels(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
     """Palette index per grid pixel, int8 [T, H/GRID, W/GRID]; body colours only over a clean background."""
     labels = lookup(frames[:, ::GRID, ::GRID])
-    labels[(labels >= WHITE) | ~clean_background(background)[None, ::GRID, ::GRID]] = UNLABELLED
+    labels[labels >= WHITE] = UNLABELLED
+    rims = ~clean_background(background)[::GRID, ::GRID]
+    labels[(labels == GRAY) & rims[None]] = UNLABELLED
     return labels
 
 
@@ -106,8 +111,8 @@ def blobs(labels: np.ndarray) -> list[Blob]:
     # in a piece of several colours, a small part is the rim of an eye or of a neighbour, not a body
     piece_total = np.bincount(piece)
     owner = np.arange(counts.size) // WHITE
-    mixed = piece_total[np.minimum(owner, piece_total.size - 1)] > counts
-    present = np.nonzero((counts >= MIN_GRID_AREA) & (~mixed | (counts >= MIN_MIXED_AREA)))[0]
+    share = counts / np.maximum(piece_total[np.minimum(owner, piece_total.size - 1)], 1)
+    present = np.nonzero((counts >= MIN_GRID_AREA) & ((share >= MIN_MIXED_SHARE) | (counts >= MIN_MIXED_AREA)))[0]
     if present.size == 0:
         return []
     sums_x = np.bincount(key, x)[present]

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import ndimage as ndi
 
-from .detect import BLACK, PALETTE, WHITE, clean_background, lookup
+from .detect import BLACK, GRAY, PALETTE, WHITE, clean_background, lookup
 
 #: Radius (pixels) of the disk that closes the eye notches of a body's colour mask.
 CLOSING_RADIUS = 4
@@ -29,6 +29,8 @@ def _disk(radius: int) -> np.ndarray:
 
 
 _CLOSING = _disk(CLOSING_RADIUS)
+#: A piece of another body colour this large (pixels) next to the body means another body touches it.
+OTHER_BODY_PIXELS = 12
 
 
 @dataclass(frozen=True)
@@ -65,9 +67,11 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
     inside the window) only the connected piece nearest to it is measured."""
     if labels is None:
         labels = lookup(window)
-    # the antialiased rims of black statics read as gray: a body colour counts only over a flat background
+    # the antialiased rims of black statics read as gray: gray counts only over a flat background
     clean = clean_background(background)
-    core = (labels == color) & clean
+    core = labels == color
+    if color == GRAY:
+        core &= clean
     if not core.any():
         return None
     closed = ndi.binary_closing(np.pad(core, CLOSING_RADIUS), structure=_CLOSING)[
@@ -91,8 +95,8 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
     proj = ((window.astype(np.float32) - b) * cb).sum(-1) / denom
     eyes = (labels == WHITE) | (labels == BLACK)
     # another body's colour (compression rings of statics reach a pixel or two beyond their drawn rims)
-    other = (labels >= 0) & (labels < WHITE) & (labels != color) & ndi.binary_erosion(clean, iterations=2,
-                                                                                       border_value=1)
+    other = (labels >= 0) & (labels < WHITE) & (labels != color)
+    other &= (labels != GRAY) | ndi.binary_erosion(clean, iterations=2, border_value=1)
     alpha = interior.astype(np.float32)
     rim_ok = rim & ~other & ~(eyes & filled)
     alpha[rim_ok] = np.clip(proj[rim_ok], 0.0, 1.0)
@@ -117,6 +121,12 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
     else:
         eye_x = eye_y = None
     border = filled[0].any() or filled[-1].any() or filled[:, 0].any() or filled[:, -1].any()
-    cut = bool((ndi.binary_dilation(filled, iterations=2) & ~filled & other).sum() > 2)
+    ring = ndi.binary_dilation(filled, iterations=2) & ~filled
+    cut = False
+    if (ring & other).any():  # another body touches: a piece of another colour of some size (not eye-rim mixes)
+        pieces, n = ndi.label(other)
+        sizes = np.bincount(pieces.ravel())
+        touching = np.unique(pieces[ring & other])
+        cut = bool(np.any(sizes[touching[touching > 0]] >= OTHER_BODY_PIXELS))
     return Measurement(area, cx + origin[1], cy + origin[0], mxx, mxy, myy, radius, eye_x, eye_y,
                        not border and not cut)

@@ -56,6 +56,11 @@ EYE_BIAS: dict[tuple[str, str], tuple[float, float]] = {
     ("triangle", "large"): (0.0, 0.0),
     ("triangle", "small"): (0.0, 0.32),
 }
+#: Distances above this (pixels) count as this much in the score of a run.
+SCORE_CAP_PX = 20.0
+#: Other (shape, size) readings tried per body when the run strays: at most this many, each at least this likely.
+ALTERNATIVES = 2
+ALTERNATIVE_P = 1e-4
 _FD = 1e-5
 
 
@@ -171,9 +176,10 @@ class StartFit:
         self.size = size
         n = len(model.layout.dynamic)
         self.uids = [n - 1 - s for s in range(n)]  # slot s gets uid n-1-s (last slot, uid 0)
-        self.paths = [d.path for d in model.draws if d.path.startswith("dynamic") and isinstance(d.quantity,
-                                                                                                  Uniform)]
-        self.choices = [d for d in model.draws if d.path.startswith("dynamic") and isinstance(d.quantity, Choice)]
+        # every draw the statics do not read: the slots' own, and variables only the slots read (a launch speed)
+        free = [d for d in model.draws if d.path not in model.static_paths]
+        self.paths = [d.path for d in free if isinstance(d.quantity, Uniform)]
+        self.choices = [d for d in free if isinstance(d.quantity, Choice)]
 
     def values(self, units: np.ndarray, choice: Mapping[str, float]) -> dict[str, float]:
         unit = {p: float(u) for p, u in zip(self.paths, units)}
@@ -317,14 +323,38 @@ def stray(sim: LiveSimulation, fit: StartFit, frames: int) -> tuple[dict[int, fl
     return worst, first
 
 
-def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
-                frames: int, steps: int = 600, engine: str | PhysicsEngine = "pymunk",
-                measure: Callable[[TrackedObject, range], None] | None = None) -> Reconstruction:
-    """The simulation of a video (see the module docstring). ``measure(obj, frames)`` adds full-resolution
-    measurements of those frames to ``obj`` (the fit windows use them; elsewhere the blob centroids do)."""
-    eng = get_engine(engine)
-    slots = assign_slots(model, static_values, objects)
-    attributes = slot_attributes(model, objects, slots)
+def _score(sim: LiveSimulation, fit: StartFit, frames: int) -> float:
+    """How far the run strays from the tracks: mean over bodies and frames seen of the distance, capped at
+    :data:`SCORE_CAP_PX` (a body lost for good costs the cap, not its whole flight)."""
+    traj = sim.raw.trajectory
+    total, count = 0.0, 0
+    for s, obs in fit.observed.items():
+        uid = fit.uids[s]
+        col = traj.column(uid)
+        pos = traj.positions[1:frames + 1, col]
+        px, py = world_to_pixel(pos[:, 0], pos[:, 1], fit.size)  # type: ignore[arg-type]
+        d = np.hypot(np.asarray(px) - obs[:frames, 0], np.asarray(py) - obs[:frames, 1])
+        ok = ~np.isnan(d)
+        total += float(np.minimum(d[ok], SCORE_CAP_PX).sum())
+        count += int(ok.sum())
+    return total / max(count, 1)
+
+
+@dataclass
+class _Attempt:
+    units: np.ndarray
+    choice: dict[str, float]
+    simulation: LiveSimulation
+    worst: dict[int, float]
+    first: dict[int, int]
+    window: int
+    refits: int
+    score: float
+
+
+def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
+             slots: Sequence[int], attributes: Sequence[Attributes], frames: int, steps: int, eng: PhysicsEngine,
+             measure: Callable[[TrackedObject, range], None] | None, refits_allowed: int) -> _Attempt:
     observed = {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}
     fit = StartFit(model, static_values, attributes, observed, eng)
     window = min(START_FRAMES, frames)
@@ -335,7 +365,7 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
         sim = LiveSimulation(world, eng.run(world, steps), eng, meta={"scene": model.scene_id,
                                                                      "source": "reconstructed from video"})
         worst, first = stray(sim, fit, frames)
-        if not first or refits >= REFITS:
+        if not first or refits >= refits_allowed:
             break
         earliest = min(first.values())
         if earliest <= window:
@@ -348,4 +378,42 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
                     fit.observed[s] = _observations(obj, frames)
         units, choice, _rms = fit.fit(window, units)
         refits += 1
-    return Reconstruction(sim, fit.values(units, choice), slots, attributes, worst, first, window, refits)
+    return _Attempt(units, choice, sim, worst, first, window, refits, _score(sim, fit, frames))
+
+
+def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
+                frames: int, steps: int = 600, engine: str | PhysicsEngine = "pymunk",
+                measure: Callable[[TrackedObject, range], None] | None = None) -> Reconstruction:
+    """The simulation of a video (see the module docstring). ``measure(obj, frames)`` adds full-resolution
+    measurements of those frames to ``obj`` (the fit windows use them; elsewhere the blob centroids do).
+
+    When the run strays, the (shape, size) readings the detector found less likely are tried in turn (a body of the
+    wrong shape makes the others stray too): the attributes whose run follows the video best are kept."""
+    eng = get_engine(engine)
+    slots = assign_slots(model, static_values, objects)
+    attributes = slot_attributes(model, objects, slots)
+    best = _attempt(model, static_values, objects, slots, attributes, frames, steps, eng, measure, REFITS)
+    if best.first:
+        order = sorted(range(len(objects)), key=lambda i: max(objects[i].shape_size.values(), default=1.0))
+        for i in order:
+            s = slots[i]
+            if s < 0:
+                continue
+            obj = objects[i]
+            ranked = sorted(obj.shape_size.items(), key=lambda kv: -kv[1])
+            tried = 0
+            for (shape, size), p in ranked:
+                triple = (shape, obj.color_name, size)
+                if p < ALTERNATIVE_P or tried >= ALTERNATIVES or triple == attributes[s]:
+                    continue
+                if triple in attributes or not model.slot_allows(s, triple):
+                    continue
+                tried += 1
+                trial = list(attributes)
+                trial[s] = triple
+                attempt = _attempt(model, static_values, objects, slots, trial, frames, steps, eng, measure, 0)
+                if attempt.score < best.score - 0.2:
+                    best, attributes = attempt, trial
+    fit = StartFit(model, static_values, attributes, {}, eng)
+    return Reconstruction(best.simulation, fit.values(best.units, best.choice), list(slots), list(attributes),
+                          best.worst, best.first, best.window, best.refits)

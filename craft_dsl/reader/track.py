@@ -31,7 +31,7 @@ from .measure import Measurement, measure
 #: A colour counts n bodies when at least this many frames show n separate substantial blobs of it.
 MIN_FRAMES = 6
 #: Blobs smaller than this (full-resolution pixels of body colour) do not count as a body (pupil rims read as gray).
-SUBSTANTIAL_AREA = 28.0
+SUBSTANTIAL_AREA = 16.0
 #: Window (pixels) of the full-resolution measurement.
 WINDOW = 48
 #: (shape, size) -> median and spread of the measured (area px^2, radius / sqrt(area), second moment / area) of a
