@@ -22,6 +22,7 @@ from ..perception.schema import PerceivedScene
 from ..perception.world import SceneModel
 from ..program import Program, to_json
 from ..question_parsing import question_to_program
+from ..types import DslType
 
 VIDEO_SUFFIXES = (".mpg", ".mp4")
 
@@ -167,9 +168,27 @@ def answer_questions(scene: PerceivedScene, questions: Sequence[Question], distr
         try:
             value = program.run(sim)
         except CraftError as err:
-            out.append(Answer(q, None, program=str(program), error=f"cannot be answered: {err}"))
+            out.append(Answer(q, fallback_answer(program), program=str(program), error=f"cannot be answered: {err}"))
             continue
         answer = format_answer(value)
-        out.append(Answer(q, answer, None, str(program), None if answer is not None else
-                          "INVALID: the objects it names are not in the perceived scene"))
+        if answer is None:  # the objects it names are not in the most likely world: weigh every reading
+            d = answer_distributions(model, [program], samples=samples, seed=seed)[0]
+            answer = format_answer(d.mode)
+            if answer is None:
+                out.append(Answer(q, fallback_answer(program), None, str(program),
+                                  "INVALID in every reading: the objects it names are not in the perceived scene"))
+                continue
+            out.append(Answer(q, answer, d.p(d.mode), str(program)))
+            continue
+        out.append(Answer(q, answer, None, str(program)))
     return out
+
+
+#: The guess for a question that has no answer over the perceived scene, by the program's answer type.
+FALLBACK = {DslType.BOOL: "False", DslType.INTEGER: "0", DslType.COLOR: "Gray", DslType.SHAPE: "Cube",
+            DslType.SIZE: "Small"}
+
+
+def fallback_answer(program: Program) -> str:
+    """A guess of the program's answer type (predictions files hold an answer for every question)."""
+    return FALLBACK.get(program.type, "False")

@@ -25,7 +25,15 @@ from .detect import blobs, grid_labels
 from .layout import StaticFit, fit_layout
 from .layout_model import layout_model
 from .reconstruct import START_FRAMES, Reconstruction, reconstruct
-from .track import TrackedObject, classify_shape, measure_frames, select_objects, track
+from .track import (
+    TrackedObject,
+    classify_shape,
+    measure_frames,
+    refine_frames,
+    select_objects,
+    track,
+    verify_shape,
+)
 from .video import Decoder, decode
 
 
@@ -55,10 +63,15 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     for obj in objects:
         classify_shape(obj, frames, background)
         measure_frames(obj, frames, background, range(min(START_FRAMES, len(frames))))
+        verify_shape(obj, frames, background)
     times["detect"] = time.perf_counter() - t
     t = time.perf_counter()
-    rec = reconstruct(model, layout.values, objects, len(frames), steps=len(frames),
-                      measure=lambda obj, which: measure_frames(obj, frames, background, which))
+
+    def measure(obj: TrackedObject, which: range, shape: str, size: str) -> None:
+        measure_frames(obj, frames, background, which)
+        refine_frames(obj, frames, background, which, shape, size)
+
+    rec = reconstruct(model, layout.values, objects, len(frames), steps=len(frames), measure=measure)
     times["reconstruct"] = time.perf_counter() - t
     perceived = to_perceived(rec, objects, layout)
     return Perception(perceived, layout, objects, rec, times)

@@ -36,7 +36,7 @@ from ..render.raster import world_to_pixel
 from ..scenes import Choice, Uniform
 from ..world import WorldSpec
 from .layout_model import Attributes, LayoutModel
-from .track import TrackedObject
+from .track import EYE_BIAS, TrackedObject
 
 #: Frames of the first start fit.
 START_FRAMES = 40
@@ -46,16 +46,6 @@ FIT_ITERATIONS = 8
 STRAY_PX = 2.0
 #: Refits on longer windows before the run is accepted as it is.
 REFITS = 3
-#: Measured centroid minus the body's centre, in the body's frame (pixels, x right and y up at angle 0): the colour
-#: mask misses what the eyes cover (calibrated on generated MPEG-1 videos; large bodies have none to speak of).
-EYE_BIAS: dict[tuple[str, str], tuple[float, float]] = {
-    ("circle", "large"): (0.0, 0.0),
-    ("circle", "small"): (0.0, 1.88),
-    ("cube", "large"): (0.0, 0.0),
-    ("cube", "small"): (0.0, 2.26),
-    ("triangle", "large"): (0.0, 0.0),
-    ("triangle", "small"): (0.0, 0.32),
-}
 #: Distances above this (pixels) count as this much in the score of a run.
 SCORE_CAP_PX = 20.0
 #: Other (shape, size) readings tried per body when the run strays: at most this many, each at least this likely.
@@ -79,15 +69,18 @@ class Reconstruction:
 
 
 def _observations(obj: TrackedObject, frames: int) -> np.ndarray:
-    """[frames, 2] coarse centroid per frame (NaN where not seen alone, or cut by the frame border)."""
-    out = np.full((frames, 2), np.nan)
+    """[frames, 3] per frame: x, y (pixels) and 1 where that is the colour centroid (with its eye bias), 0 where it
+    is the exact centre (render and compare); NaN where the body is not seen alone or is cut by the border."""
+    out = np.full((frames, 3), np.nan)
     for k, b in enumerate(obj.blobs[:frames]):
-        if b is not None and not b.touches_edge:
+        if k in obj.poses:
+            out[k] = (obj.poses[k][0], obj.poses[k][1], 0.0)
+        elif b is not None and not b.touches_edge:
             m = obj.measurements.get(k)
             if m is not None and m.complete:
-                out[k] = (m.x, m.y)
+                out[k] = (m.x, m.y, 1.0)
             elif m is None:
-                out[k] = (b.x, b.y)
+                out[k] = (b.x, b.y, 1.0)
     return out
 
 
@@ -208,8 +201,12 @@ class StartFit:
             bx, by = EYE_BIAS.get((shape, size), (0.0, 0.0))
             px, py = world_to_pixel(pos[:, 0], pos[:, 1], self.size)  # type: ignore[arg-type]
             c, sn = np.cos(ang), np.sin(ang)
-            # body-frame bias (y up) rotated by the angle, then to pixel axes (y down)
-            out[s] = np.stack([np.asarray(px) + c * bx - sn * by, np.asarray(py) - (sn * bx + c * by)], axis=1)
+            # body-frame bias (y up) rotated by the angle, then to pixel axes (y down), where the observation is a
+            # colour centroid
+            biased = self.observed[s][:frames, 2] if s in self.observed else np.zeros(frames)
+            biased = np.nan_to_num(biased)
+            out[s] = np.stack([np.asarray(px) + biased * (c * bx - sn * by),
+                               np.asarray(py) - biased * (sn * bx + c * by)], axis=1)
         return out
 
     def residual(self, units: np.ndarray, choice: Mapping[str, float], frames: int) -> np.ndarray:
@@ -218,7 +215,9 @@ class StartFit:
         for s, obs in self.observed.items():
             o = obs[:frames]
             ok = ~np.isnan(o[:, 0])
-            parts.append((pred[s][ok] - o[ok]).ravel())
+            # exact centres weigh as what they are: ten times more precise than colour centroids
+            w = np.where(o[ok, 2] > 0, 1.0, 10.0)[:, None]
+            parts.append(((pred[s][ok] - o[ok, :2]) * w).ravel())
         return np.concatenate(parts) if parts else np.zeros(0)
 
     def fit(self, frames: int, start: np.ndarray | None = None) -> tuple[np.ndarray, dict[str, float], float]:
@@ -289,19 +288,20 @@ def _initial_units(fit: StartFit) -> np.ndarray:
         if seen.size == 0 or (seen[0] > 0 and axis == 1):
             continue
         x, y = to_metres(obs[seen[0], 0], obs[seen[0], 1], fit.size)
+        y = y if obs[seen[0], 2] == 0 else y - 0.3  # the colour centroid of a small body sits above its centre
         value = float(x if axis == 0 else y)
         lo, hi = bounds[path]
         units[j] = 0.5 if hi == lo else float(np.clip((value - lo) / (hi - lo), 0.0, 1.0))
     return units
 
 
-def stray(sim: LiveSimulation, fit: StartFit, frames: int) -> tuple[dict[int, float], dict[int, int]]:
-    """Per uid: the largest distance (pixels) between the run and its track, and the first frame beyond STRAY_PX."""
+def _predicted(sim: LiveSimulation, fit: StartFit, frames: int) -> dict[int, np.ndarray]:
+    """slot -> [frames, 2]: where the run puts each observation (the centre, plus the eye bias where the
+    observation is a colour centroid)."""
     traj = sim.raw.trajectory
-    worst: dict[int, float] = {}
-    first: dict[int, int] = {}
-    pred = {}
-    for s, uid in enumerate(fit.uids):
+    out = {}
+    for s in fit.observed:
+        uid = fit.uids[s]
         col = traj.column(uid)
         pos = traj.positions[1:frames + 1, col]
         ang = traj.angles[1:frames + 1, col]
@@ -309,14 +309,28 @@ def stray(sim: LiveSimulation, fit: StartFit, frames: int) -> tuple[dict[int, fl
         bx, by = EYE_BIAS.get((shape, size), (0.0, 0.0))
         px, py = world_to_pixel(pos[:, 0], pos[:, 1], fit.size)  # type: ignore[arg-type]
         c, sn = np.cos(ang), np.sin(ang)
-        pred[s] = np.stack([np.asarray(px) + c * bx - sn * by, np.asarray(py) - (sn * bx + c * by)], axis=1)
-    for s, obs in fit.observed.items():
+        biased = np.nan_to_num(fit.observed[s][:frames, 2])
+        out[s] = np.stack([np.asarray(px) + biased * (c * bx - sn * by),
+                           np.asarray(py) - biased * (sn * bx + c * by)], axis=1)
+    return out
+
+
+def _distances(sim: LiveSimulation, fit: StartFit, frames: int) -> dict[int, np.ndarray]:
+    """slot -> [frames] distance (pixels) between the run and the observations (NaN where none)."""
+    pred = _predicted(sim, fit, frames)
+    return {s: np.hypot(*(pred[s] - obs[:frames, :2]).T) for s, obs in fit.observed.items()}
+
+
+def stray(sim: LiveSimulation, fit: StartFit, frames: int) -> tuple[dict[int, float], dict[int, int]]:
+    """Per uid: the largest distance (pixels) between the run and its track, and the first frame beyond STRAY_PX
+    (two frames in a row: a single one is a blob merged with a neighbour's rim)."""
+    worst: dict[int, float] = {}
+    first: dict[int, int] = {}
+    for s, d in _distances(sim, fit, frames).items():
         uid = fit.uids[s]
-        d = np.hypot(*(pred[s][:len(obs)] - obs[:frames]).T)
         ok = ~np.isnan(d)
         worst[uid] = float(np.max(d[ok])) if ok.any() else 0.0
-        over = np.nonzero(ok & (d > STRAY_PX))[0]
-        # a single frame over (a blob merged with a neighbour's rim) is not a stray: two in a row are
+        over = np.nonzero(ok & (np.nan_to_num(d) > STRAY_PX))[0]
         runs = over[1:][np.diff(over) == 1] if over.size > 1 else np.zeros(0, dtype=int)
         if runs.size:
             first[uid] = int(runs[0] - 1)
@@ -326,14 +340,8 @@ def stray(sim: LiveSimulation, fit: StartFit, frames: int) -> tuple[dict[int, fl
 def _score(sim: LiveSimulation, fit: StartFit, frames: int) -> float:
     """How far the run strays from the tracks: mean over bodies and frames seen of the distance, capped at
     :data:`SCORE_CAP_PX` (a body lost for good costs the cap, not its whole flight)."""
-    traj = sim.raw.trajectory
     total, count = 0.0, 0
-    for s, obs in fit.observed.items():
-        uid = fit.uids[s]
-        col = traj.column(uid)
-        pos = traj.positions[1:frames + 1, col]
-        px, py = world_to_pixel(pos[:, 0], pos[:, 1], fit.size)  # type: ignore[arg-type]
-        d = np.hypot(np.asarray(px) - obs[:frames, 0], np.asarray(py) - obs[:frames, 1])
+    for d in _distances(sim, fit, frames).values():
         ok = ~np.isnan(d)
         total += float(np.minimum(d[ok], SCORE_CAP_PX).sum())
         count += int(ok.sum())
@@ -354,7 +362,11 @@ class _Attempt:
 
 def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
              slots: Sequence[int], attributes: Sequence[Attributes], frames: int, steps: int, eng: PhysicsEngine,
-             measure: Callable[[TrackedObject, range], None] | None, refits_allowed: int) -> _Attempt:
+             measure: Callable[[TrackedObject, range, str, str], None] | None, refits_allowed: int) -> _Attempt:
+    if measure is not None:
+        for obj, s in zip(objects, slots):
+            if s >= 0:
+                measure(obj, range(min(START_FRAMES, frames)), attributes[s][0], attributes[s][2])
     observed = {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}
     fit = StartFit(model, static_values, attributes, observed, eng)
     window = min(START_FRAMES, frames)
@@ -374,7 +386,7 @@ def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Se
         if measure is not None:
             for obj, s in zip(objects, slots):
                 if s >= 0:
-                    measure(obj, range(window))
+                    measure(obj, range(window), attributes[s][0], attributes[s][2])
                     fit.observed[s] = _observations(obj, frames)
         units, choice, _rms = fit.fit(window, units)
         refits += 1
@@ -383,9 +395,10 @@ def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Se
 
 def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
                 frames: int, steps: int = 600, engine: str | PhysicsEngine = "pymunk",
-                measure: Callable[[TrackedObject, range], None] | None = None) -> Reconstruction:
+                measure: Callable[[TrackedObject, range, str, str], None] | None = None) -> Reconstruction:
     """The simulation of a video (see the module docstring). ``measure(obj, frames)`` adds full-resolution
-    measurements of those frames to ``obj`` (the fit windows use them; elsewhere the blob centroids do).
+    measurements and exact poses of those frames to ``obj`` as (shape, size) (the fit windows use them; elsewhere
+    the blob centroids do).
 
     When the run strays, the (shape, size) readings the detector found less likely are tried in turn (a body of the
     wrong shape makes the others stray too): the attributes whose run follows the video best are kept."""

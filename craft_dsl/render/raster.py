@@ -356,6 +356,17 @@ def _shade(sprite: _DynamicSprite, x0: np.ndarray, y0: np.ndarray, cx: np.ndarra
     return alpha, base
 
 
+def shade_body(geometry: Geometry, color: str, cx: np.ndarray, cy: np.ndarray, angle: np.ndarray, x0: np.ndarray,
+               y0: np.ndarray, window: int, size: int = DEFAULT_SIZE) -> tuple[np.ndarray, np.ndarray]:
+    """How the renderer draws a dynamic body in pixel windows: coverage [n, w, w] and premultiplied colour
+    [n, w, w, 3] (float32) of a body with centre (``cx``, ``cy``) in pixels and ``angle``, in the windows whose
+    top-left pixels are (``x0``, ``y0``) (arrays of n). A frame's window is then ``dst * (1 - coverage) + colour``."""
+    sprite = _DynamicSprite(0, _rgb(color), window, tuple(_convex(p) for p in geometry.polygons),
+                            geometry.circle_radius)
+    return _shade(sprite, np.asarray(x0), np.asarray(y0), np.asarray(cx, dtype=np.float64),
+                  np.asarray(cy, dtype=np.float64), np.asarray(angle, dtype=np.float64), window, px_per_metre(size))
+
+
 # -- frames ---------------------------------------------------------------------------------------
 
 
