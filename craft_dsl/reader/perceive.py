@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -24,7 +25,7 @@ from ..world import WorldSpec
 from .detect import blobs, grid_labels
 from .layout import StaticFit, fit_layout
 from .layout_model import layout_model
-from .reconstruct import START_FRAMES, Reconstruction, reconstruct
+from .reconstruct import START_FRAMES, Reconstruction, fit_frames, reconstruct
 from .track import (
     TrackedObject,
     classify_shape,
@@ -62,12 +63,12 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     objects = select_objects(track(found, len(frames)), len(model.layout.dynamic))
     for obj in objects:
         classify_shape(obj, frames, background)
-        measure_frames(obj, frames, background, range(min(START_FRAMES, len(frames))))
+        measure_frames(obj, frames, background, fit_frames(min(START_FRAMES, len(frames))))
         verify_shape(obj, frames, background)
     times["detect"] = time.perf_counter() - t
     t = time.perf_counter()
 
-    def measure(obj: TrackedObject, which: range, shape: str, size: str) -> None:
+    def measure(obj: TrackedObject, which: Sequence[int], shape: str, size: str) -> None:
         measure_frames(obj, frames, background, which)
         refine_frames(obj, frames, background, which, shape, size)
 

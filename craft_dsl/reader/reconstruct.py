@@ -25,15 +25,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ..physics.engine import PhysicsEngine
+from ..physics.engine import ContactLog, PhysicsEngine, RawRun, splice
 from ..physics.live import LiveSimulation, get_engine
 from ..render.raster import world_to_pixel
 from ..scenes import Choice, Uniform
+from ..simulation import Trajectory
 from ..world import WorldSpec
 from .layout_model import Attributes, LayoutModel
 from .track import EYE_BIAS, TrackedObject
@@ -43,9 +44,25 @@ START_FRAMES = 40
 #: Gauss-Newton iterations of a start fit.
 FIT_ITERATIONS = 8
 #: A body straying further than this from its track (pixels, in a frame where it is seen alone) triggers a refit.
-STRAY_PX = 2.0
+STRAY_PX = 3.0
 #: Refits on longer windows before the run is accepted as it is.
 REFITS = 3
+#: Longest window (frames) of a refit: beyond it the engine runs cost more than they pin down.
+MAX_WINDOW = 240
+#: Frames measured exactly in a fit window: every one of the first DENSE_FRAMES, then about FIT_SAMPLES spread over
+#: the rest (the blob centroids fill in between).
+DENSE_FRAMES = 16
+FIT_SAMPLES = 40
+#: Re-anchoring: restart this many frames before the first stray, fit the next ANCHOR_WINDOW frames, restart the
+#: bodies straying more than ANCHOR_MOVER_PX there; at most MAX_ANCHORS restarts per video.
+ANCHOR_BACK = 6
+ANCHOR_WINDOW = 36
+ANCHOR_MOVER_PX = 1.0
+ANCHOR_ITERATIONS = 5
+MAX_ANCHORS = 6
+_ZERO6 = np.zeros(6)
+_DEBUG = False  # prints the re-anchoring fits (development aid)
+_ANCHOR_STEP_LIMIT = np.tile([0.5, 0.5, 0.5, 5.0, 5.0, 5.0], 16)
 #: Distances above this (pixels) count as this much in the score of a run.
 SCORE_CAP_PX = 20.0
 #: Other (shape, size) readings tried per body when the run strays: at most this many, each at least this likely.
@@ -66,6 +83,7 @@ class Reconstruction:
     first_stray: dict[int, int] = field(default_factory=dict)  # uid -> first frame beyond STRAY_PX
     fit_frames: int = 0
     refits: int = 0
+    anchors: int = 0  # restarts of straying bodies from the video
 
 
 def _observations(obj: TrackedObject, frames: int) -> np.ndarray:
@@ -263,6 +281,15 @@ class StartFit:
         return units, cost
 
 
+def fit_frames(window: int) -> list[int]:
+    """The frames of a fit window that are measured exactly (see :data:`DENSE_FRAMES`)."""
+    dense = list(range(min(DENSE_FRAMES, window)))
+    if window <= DENSE_FRAMES:
+        return dense
+    stride = max(1, (window - DENSE_FRAMES) // FIT_SAMPLES)
+    return dense + list(range(DENSE_FRAMES, window, stride))
+
+
 def _product(options: Sequence[Sequence[float]]) -> list[tuple[float, ...]]:
     out: list[tuple[float, ...]] = [()]
     for opts in options:
@@ -295,23 +322,27 @@ def _initial_units(fit: StartFit) -> np.ndarray:
     return units
 
 
+def _as_observed(pos: np.ndarray, ang: np.ndarray, shape_size: tuple[str, str], biased: np.ndarray,
+                 size: int) -> np.ndarray:
+    """[n, 2] pixels: where body centres ``pos`` (metres) at angles ``ang`` are observed: the centre, plus the eye
+    bias rotated by the angle where the observation is a colour centroid (``biased`` 1)."""
+    bx, by = EYE_BIAS.get(shape_size, (0.0, 0.0))
+    px, py = world_to_pixel(pos[:, 0], pos[:, 1], size)  # type: ignore[arg-type]
+    c, sn = np.cos(ang), np.sin(ang)
+    biased = np.nan_to_num(biased)
+    return np.stack([np.asarray(px) + biased * (c * bx - sn * by), np.asarray(py) - biased * (sn * bx + c * by)],
+                    axis=1)
+
+
 def _predicted(sim: LiveSimulation, fit: StartFit, frames: int) -> dict[int, np.ndarray]:
-    """slot -> [frames, 2]: where the run puts each observation (the centre, plus the eye bias where the
-    observation is a colour centroid)."""
+    """slot -> [frames, 2]: where the run puts each observation."""
     traj = sim.raw.trajectory
     out = {}
     for s in fit.observed:
-        uid = fit.uids[s]
-        col = traj.column(uid)
-        pos = traj.positions[1:frames + 1, col]
-        ang = traj.angles[1:frames + 1, col]
+        col = traj.column(fit.uids[s])
         shape, _color, size = fit.attributes[s]
-        bx, by = EYE_BIAS.get((shape, size), (0.0, 0.0))
-        px, py = world_to_pixel(pos[:, 0], pos[:, 1], fit.size)  # type: ignore[arg-type]
-        c, sn = np.cos(ang), np.sin(ang)
-        biased = np.nan_to_num(fit.observed[s][:frames, 2])
-        out[s] = np.stack([np.asarray(px) + biased * (c * bx - sn * by),
-                           np.asarray(py) - biased * (sn * bx + c * by)], axis=1)
+        out[s] = _as_observed(traj.positions[1:frames + 1, col], traj.angles[1:frames + 1, col], (shape, size),
+                              fit.observed[s][:frames, 2], fit.size)
     return out
 
 
@@ -337,11 +368,12 @@ def stray(sim: LiveSimulation, fit: StartFit, frames: int) -> tuple[dict[int, fl
     return worst, first
 
 
-def _score(sim: LiveSimulation, fit: StartFit, frames: int) -> float:
-    """How far the run strays from the tracks: mean over bodies and frames seen of the distance, capped at
-    :data:`SCORE_CAP_PX` (a body lost for good costs the cap, not its whole flight)."""
+def _score(sim: LiveSimulation, fit: StartFit, frames: int, start: int = 0) -> float:
+    """How far the run strays from the tracks from frame ``start`` on: mean over bodies and frames seen of the
+    distance, capped at :data:`SCORE_CAP_PX` (a body lost for good costs the cap, not its whole flight)."""
     total, count = 0.0, 0
     for d in _distances(sim, fit, frames).values():
+        d = d[start:]
         ok = ~np.isnan(d)
         total += float(np.minimum(d[ok], SCORE_CAP_PX).sum())
         count += int(ok.sum())
@@ -362,11 +394,11 @@ class _Attempt:
 
 def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
              slots: Sequence[int], attributes: Sequence[Attributes], frames: int, steps: int, eng: PhysicsEngine,
-             measure: Callable[[TrackedObject, range, str, str], None] | None, refits_allowed: int) -> _Attempt:
+             measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None, refits_allowed: int) -> _Attempt:
     if measure is not None:
         for obj, s in zip(objects, slots):
             if s >= 0:
-                measure(obj, range(min(START_FRAMES, frames)), attributes[s][0], attributes[s][2])
+                measure(obj, fit_frames(min(START_FRAMES, frames)), attributes[s][0], attributes[s][2])
     observed = {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}
     fit = StartFit(model, static_values, attributes, observed, eng)
     window = min(START_FRAMES, frames)
@@ -382,20 +414,140 @@ def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Se
         earliest = min(first.values())
         if earliest <= window:
             break
-        window = max(window + 10, earliest - 2)
+        window = min(max(window + 10, earliest - 2), MAX_WINDOW)
         if measure is not None:
             for obj, s in zip(objects, slots):
                 if s >= 0:
-                    measure(obj, range(window), attributes[s][0], attributes[s][2])
+                    measure(obj, fit_frames(window), attributes[s][0], attributes[s][2])
                     fit.observed[s] = _observations(obj, frames)
         units, choice, _rms = fit.fit(window, units)
         refits += 1
     return _Attempt(units, choice, sim, worst, first, window, refits, _score(sim, fit, frames))
 
 
+# -- re-anchoring: where chaotic contacts make the run stray, restart the straying bodies from the video ----------
+
+
+def _state_world(world: WorldSpec, traj: Trajectory, row: int, offsets: Mapping[int, np.ndarray]) -> WorldSpec:
+    """``world`` with every dynamic body at its state of ``row`` (plus ``offsets[uid]``: dx, dy, dangle, dvx, dvy,
+    dspin)."""
+    bodies = []
+    for b in world.bodies:
+        if not b.dynamic:
+            bodies.append(b)
+            continue
+        c = traj.column(b.uid)
+        d = offsets.get(b.uid, _ZERO6)
+        bodies.append(replace(
+            b, position=(float(traj.positions[row, c, 0] + d[0]), float(traj.positions[row, c, 1] + d[1])),
+            angle=float(traj.angles[row, c] + d[2]),
+            velocity=(float(traj.velocities[row, c, 0] + d[3]), float(traj.velocities[row, c, 1] + d[4])),
+            angular_velocity=float(traj.angular_velocities[row, c] + d[5])))
+    return replace(world, bodies=tuple(bodies))
+
+
+def _shift_log(log: ContactLog, row: int, steps: int) -> ContactLog:
+    """A log of a run started at ``row``, in the frames of the whole run."""
+    return ContactLog(steps, {k: tuple((s + row, e + row) for s, e in v) for k, v in log.contacts.items()},
+                      {k: tuple((s + row, e + row) for s, e in v) for k, v in log.sensors.items()})
+
+
+def stitch(base: RawRun, tail: RawRun, row: int) -> RawRun:
+    """``base`` up to ``row`` and ``tail`` (a run started from row ``row``'s state) from it on."""
+    steps = base.log.steps
+    b, t = base.trajectory, tail.trajectory
+    traj = replace(b, positions=np.concatenate([b.positions[:row], t.positions]),
+                   angles=np.concatenate([b.angles[:row], t.angles]),
+                   velocities=np.concatenate([b.velocities[:row], t.velocities]),
+                   angular_velocities=np.concatenate([b.angular_velocities[:row], t.angular_velocities]))
+    awake = np.concatenate([base.awake[:row], tail.awake])
+    shifted = _shift_log(tail.log, row, steps)
+    contacts = {k: splice(base.log.contacts.get(k, ()), shifted.contacts.get(k, ()), row, steps)
+                for k in set(base.log.contacts) | set(shifted.contacts)}
+    sensors = {k: splice(base.log.sensors.get(k, ()), shifted.sensors.get(k, ()), row, steps)
+               for k in set(base.log.sensors) | set(shifted.sensors)}
+    return RawRun(traj, awake, ContactLog(steps, {k: v for k, v in contacts.items() if v},
+                                          {k: v for k, v in sensors.items() if v}))
+
+
+def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, eng: PhysicsEngine,
+             refresh: Callable[[Sequence[int]], None] | None) -> LiveSimulation | None:
+    """Restart the bodies that stray from the video a few frames before ``first_stray``, their state there fitted
+    to the next :data:`ANCHOR_WINDOW` frames (Gauss-Newton on position, angle, velocity and spin of each), and run on
+    to the end. None when the fit does not follow the window better than the run it replaces."""
+    steps = sim.raw.log.steps
+    row = max(1, first_stray - ANCHOR_BACK)
+    end = min(frames, row + ANCHOR_WINDOW)
+    if end - row < 4:
+        return None
+    if refresh is not None:
+        refresh(list(range(row, end)))
+    traj = sim.raw.trajectory
+    world = sim.world_spec
+    dist = _distances(sim, fit, frames)
+    movers = [fit.uids[s] for s, d in dist.items()
+              if np.nanmax(np.concatenate([d[row:end], [0.0]])) > ANCHOR_MOVER_PX]
+    if not movers:
+        return None
+    # observations of the window: frame k shows row k + 1, so row j of a run started at the anchor is frame
+    # row + j - 1: rows 1 .. end - row are frames row .. end - 1
+    obs = {s: o[row:end] for s, o in fit.observed.items()}
+
+    def residual(params: np.ndarray) -> np.ndarray:
+        offsets = {uid: params[6 * i:6 * i + 6] for i, uid in enumerate(movers)}
+        run = eng.run(_state_world(world, traj, row, offsets), end - row)
+        t = run.trajectory
+        parts = []
+        for s, o in obs.items():
+            uid = fit.uids[s]
+            c = t.column(uid)
+            n = t.positions.shape[0] - 1
+            shape, _color, size = fit.attributes[s]
+            pred = _as_observed(t.positions[1:, c], t.angles[1:, c], (shape, size), o[:n, 2], fit.size)
+            ok = ~np.isnan(o[:n, 0])
+            w = np.where(o[:n, 2] > 0, 0.2, 1.0)  # colour centroids: a fifth of the weight of exact poses
+            parts.append(((pred - o[:n, :2])[ok] * w[ok, None]).ravel())
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    params = np.zeros(6 * len(movers))
+    r = residual(params)
+    cost = float(r @ r)
+    before = cost
+    steps_fd = np.tile([1e-4, 1e-4, 1e-4, 1e-3, 1e-3, 1e-3], len(movers))
+    for _ in range(ANCHOR_ITERATIONS):
+        jac = np.empty((r.size, params.size))
+        for j in range(params.size):
+            dp = params.copy()
+            dp[j] += steps_fd[j]
+            jac[:, j] = (residual(dp) - r) / steps_fd[j]
+        # Levenberg-Marquardt: a state the window does not pin down (a body at rest) keeps its value
+        jtj = jac.T @ jac
+        damped = jtj + np.diag(1e-3 * np.diag(jtj) + 1e-6)
+        limit = _ANCHOR_STEP_LIMIT[:params.size]
+        step = np.clip(np.linalg.solve(damped, -jac.T @ r), -limit, limit)
+        improved = False
+        for alpha in (1.0, 0.5, 0.25, 0.1):
+            trial = params + alpha * step
+            rt = residual(trial)
+            ct = float(rt @ rt)
+            if ct < cost:
+                params, r, cost, improved = trial, rt, ct, True
+                break
+        if not improved:
+            break
+    if _DEBUG:
+        print("reanchor", row, end, "movers", movers, "before", before, "after", cost, "n", r.size)
+    if cost >= before:
+        return None
+    offsets = {uid: params[6 * i:6 * i + 6] for i, uid in enumerate(movers)}
+    tail = eng.run(_state_world(world, traj, row, offsets), steps - row)
+    raw = stitch(sim.raw, tail, row)
+    return LiveSimulation(world, raw, eng, meta=dict(sim.meta, anchors=sim.meta.get("anchors", 0) + 1))
+
+
 def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
                 frames: int, steps: int = 600, engine: str | PhysicsEngine = "pymunk",
-                measure: Callable[[TrackedObject, range, str, str], None] | None = None) -> Reconstruction:
+                measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None = None) -> Reconstruction:
     """The simulation of a video (see the module docstring). ``measure(obj, frames)`` adds full-resolution
     measurements and exact poses of those frames to ``obj`` as (shape, size) (the fit windows use them; elsewhere
     the blob centroids do).
@@ -427,6 +579,28 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
                 attempt = _attempt(model, static_values, objects, slots, trial, frames, steps, eng, measure, 0)
                 if attempt.score < best.score - 0.2:
                     best, attributes = attempt, trial
-    fit = StartFit(model, static_values, attributes, {}, eng)
-    return Reconstruction(best.simulation, fit.values(best.units, best.choice), list(slots), list(attributes),
-                          best.worst, best.first, best.window, best.refits)
+    sim, worst, first = best.simulation, best.worst, best.first
+    fit = StartFit(model, static_values, attributes,
+                   {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}, eng)
+    anchors = 0
+
+    def refresh(which: Sequence[int]) -> None:
+        if measure is None:
+            return
+        for obj, s in zip(objects, slots):
+            if s >= 0:
+                measure(obj, which, attributes[s][0], attributes[s][2])
+                fit.observed[s] = _observations(obj, frames)
+
+    while first and anchors < MAX_ANCHORS:
+        earliest = min(first.values())
+        restarted = reanchor(sim, fit, frames, earliest, eng, refresh)
+        if restarted is None:
+            break
+        new_worst, new_first = stray(restarted, fit, frames)
+        if new_first and min(new_first.values()) <= earliest:
+            break  # no progress: the restart strays as early
+        sim, worst, first = restarted, new_worst, new_first
+        anchors += 1
+    return Reconstruction(sim, fit.values(best.units, best.choice), list(slots), list(attributes), worst, first,
+                          best.window, best.refits, anchors)
