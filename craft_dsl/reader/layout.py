@@ -41,7 +41,7 @@ LEVELS: tuple[tuple[float, int, int], ...] = ((2.0, 2, 3), (1.0, 1, 3), (0.0, 1,
 #: is poor.
 SEARCHES: tuple[tuple[int, int], ...] = ((9, 2), (17, 4))
 #: A fit with a residual above this (grey levels, root mean square) tries the next candidate layout.
-GOOD_FIT_RMS = 6.0
+GOOD_FIT_RMS = 4.0
 _FD = 1e-4
 
 
@@ -143,7 +143,7 @@ def fit_statics(model: LayoutModel, lum: np.ndarray, weight: np.ndarray, search_
     First a coordinate search (each draw over ``search_points`` places in its range, ``search_rounds`` times round,
     on images blurred by 4 px at a quarter of the resolution), then Gauss-Newton at each level of :data:`LEVELS`."""
     size = lum.shape[0]
-    renderer = StaticRenderer(model, size)
+    renderers = {f: StaticRenderer(model, size // f) for f in (1, 2, 4)}
     paths = [p for p in model.static_paths
              if isinstance(next(d for d in model.draws if d.path == p).quantity, Uniform)]
     u = np.full(len(paths), 0.5)
@@ -156,7 +156,10 @@ def fit_statics(model: LayoutModel, lum: np.ndarray, weight: np.ndarray, search_
         sw = np.sqrt(_downsample(weight, factor))
 
         def residual(u: np.ndarray) -> np.ndarray:
-            return ((_blur(_downsample(renderer.render(to_values(u)), factor), sigma / factor) - obs) * sw).ravel()
+            # drawn directly at the lower resolution (the renderer's coverage is an area average, like the
+            # downsampling of the observation)
+            drawn = renderers[factor].render(to_values(u))
+            return ((_blur(drawn, sigma / factor) - obs) * sw).ravel()
 
         return residual, float((sw * sw).sum())
 
@@ -183,8 +186,8 @@ def fit_statics(model: LayoutModel, lum: np.ndarray, weight: np.ndarray, search_
                 du = u.copy()
                 du[j] += _FD if du[j] + _FD <= 1.0 else -_FD
                 jac[:, j] = (residual(du) - r) / (du[j] - u[j])
-            nz = np.any(jac != 0, axis=1)
-            step = np.linalg.lstsq(jac[nz], -r[nz], rcond=None)[0] if nz.any() else np.zeros(len(paths))
+            jtj = jac.T @ jac
+            step = np.linalg.solve(jtj + np.diag(1e-6 * np.diag(jtj) + 1e-9), -jac.T @ r)
             improved = False
             for alpha in (1.0, 0.5, 0.25, 0.1):
                 trial = np.clip(u + alpha * step, 0.0, 1.0)

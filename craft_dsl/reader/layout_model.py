@@ -42,6 +42,7 @@ class LayoutModel:
     def __init__(self, scene_id: int) -> None:
         self.scene_id = scene_id
         self.layout: SceneLayout = load_scene(scene_id)
+        self._statics_cache: dict[tuple[tuple[str, float], ...], tuple[BodySpec, ...]] = {}
 
     @cached_property
     def draws(self) -> tuple[Draw, ...]:
@@ -124,6 +125,16 @@ class LayoutModel:
 
     def statics(self, values: Mapping[str, float]) -> list[BodySpec]:
         """Walls, ground, basket and the static elements, in creation order (uids not yet assigned)."""
+        key = tuple(sorted(values.items()))
+        if key in self._statics_cache:
+            return list(self._statics_cache[key])
+        bodies = self._make_statics(values)
+        if len(self._statics_cache) > 256:
+            self._statics_cache.clear()
+        self._statics_cache[key] = tuple(bodies)
+        return bodies
+
+    def _make_statics(self, values: Mapping[str, float]) -> list[BodySpec]:
         f = self.evaluate(values)
         bodies = [make_static(0, "wall_l"), make_static(0, "wall_r"), make_static(0, "ground"),
                   make_static(0, "basket", (f["basket.position[0]"], f["basket.position[1]"]), 0.0)]

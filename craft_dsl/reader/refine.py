@@ -25,6 +25,8 @@ from .detect import WHITE, lookup
 BLUR: tuple[float, ...] = (2.0, 1.0, 0.0, 0.0)
 #: Finite-difference steps: centre (pixels) and angle (radians).
 _STEP_PX = 0.05
+_DILATE = np.zeros((3, 3, 3), dtype=bool)
+_DILATE[1] = True
 _STEP_RAD = 0.01
 
 
@@ -55,9 +57,12 @@ def refine(frames: np.ndarray, background: np.ndarray, shape: str, size: str, co
     observed = frames[idx[k][:, None, None], rows[:, :, None], cols[:, None, :]].astype(np.float32)
     bg = background[rows[:, :, None], cols[:, None, :]].astype(np.float32)
     labels = lookup(observed.astype(np.uint8))
-    weight = ~((labels >= 0) & (labels < WHITE) & (labels != color))  # other bodies' colours do not count
-    weight3 = weight[..., None].astype(np.float32)
     name = COLORS[color]
+    # other bodies' colours do not count, except on the body itself (a small dark body partly reads as gray)
+    footprint, _ = shade_body(geometry, name, x[k], y[k], a[k], x0[k], y0[k], win, w_img)
+    footprint = ndi.binary_dilation(footprint > 0, structure=_DILATE, iterations=2)
+    weight = ~((labels >= 0) & (labels < WHITE) & (labels != color) & ~footprint)
+    weight3 = weight[..., None].astype(np.float32)
 
     def draw(cx: np.ndarray, cy: np.ndarray, ang: np.ndarray) -> np.ndarray:
         alpha, base = shade_body(geometry, name, cx, cy, ang, x0[k], y0[k], win, w_img)

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..vocabulary import COLORS, SHAPES, SIZES
-from .detect import Blob
+from .detect import GRAY, Blob
 from .measure import Measurement, measure
 from .refine import refine
 
@@ -61,6 +61,8 @@ EYE_BIAS: dict[tuple[str, str], tuple[float, float]] = {
 MAX_REFINE_RMS = 30.0
 #: Residual difference (grey levels) that makes one (shape, size) e^(1/2) times less likely than the best.
 RESIDUAL_SCALE = 1.5
+#: The shape features' probability is not trusted below this when the drawing's residual is weighed in.
+FEATURE_FLOOR = 1e-3
 
 
 @dataclass
@@ -159,6 +161,56 @@ def track(blobs: Sequence[Blob], frames: int, counts: dict[int, int] | None = No
                         areas[i] = b.area if areas[i] is None else 0.9 * areas[i] + 0.1 * b.area
         objects += [TrackedObject(color, t) for t in tracks]
     return objects
+
+
+def _position(obj: TrackedObject, k: int) -> tuple[float, float] | None:
+    b = obj.blobs[k]
+    return None if b is None else (b.x, b.y)
+
+
+def same_body(a: TrackedObject, b: TrackedObject) -> bool:
+    """Whether two tracks of different colours are one body read in two colours (a small dark body loses its
+    chroma to the compression and reads as gray in some frames): they are seen together in few frames, always at
+    the same place when they are, and where one is seen the other was seen close by a few frames before or after."""
+    sa, sb = set(a.seen()), set(b.seen())
+    if not sa or not sb:
+        return False
+    both = sa & sb
+    if len(both) > 0.3 * min(len(sa), len(sb)):
+        close = sum(1 for k in both if math.dist(_position(a, k), _position(b, k)) < 8.0)  # type: ignore[arg-type]
+        if close < 0.8 * len(both):
+            return False
+    near = 0
+    checked = 0
+    for k in sorted(sa - both)[::3]:
+        for d in (1, -1, 2, -2, 3, -3):
+            if k + d in sb:
+                checked += 1
+                near += math.dist(_position(a, k), _position(b, k + d)) < 12.0  # type: ignore[arg-type]
+                break
+    return checked >= 3 and near >= 0.8 * checked
+
+
+def merge_colour_splits(objects: list[TrackedObject]) -> list[TrackedObject]:
+    """Join the tracks of a body read in two colours (:func:`same_body`); the chromatic colour wins over gray, else
+    the colour seen in more frames."""
+    out = list(objects)
+    merged = True
+    while merged:
+        merged = False
+        for i, a in enumerate(out):
+            for b in out[i + 1:]:
+                if a.color == b.color or not same_body(a, b):
+                    continue
+                keep, drop = (a, b) if (b.color == GRAY or (a.color != GRAY and len(a.seen()) >= len(b.seen()))) \
+                    else (b, a)
+                blobs = [kb if kb is not None else db for kb, db in zip(keep.blobs, drop.blobs)]
+                out = [o for o in out if o is not a and o is not b] + [TrackedObject(keep.color, blobs)]
+                merged = True
+                break
+            if merged:
+                break
+    return out
 
 
 def attached_fraction(obj: TrackedObject, others: Sequence[TrackedObject], distance: float = 14.0) -> float:
@@ -271,15 +323,15 @@ def verify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray)
     """Where the features leave a second (shape, size) possible, let the drawing decide: each candidate's
     probability is weighted by exp(-residual^2 / (2 * RESIDUAL_SCALE^2)) relative to the best."""
     ranked = sorted(obj.shape_size.items(), key=lambda kv: -kv[1])
-    candidates = [key for key, p in ranked[:3] if p >= 1e-4]
-    if len(candidates) < 2:
-        return
+    # the three shapes of the likeliest size (the features tell sizes apart far better than small shapes)
+    size = ranked[0][0][1]
+    candidates = [(shape, size) for shape in SHAPES]
     residual = {key: shape_residual(obj, frames, background, *key) for key in candidates}
     best = min(residual.values())
     if not math.isfinite(best):
         return
-    weights = {key: obj.shape_size[key] * math.exp(-((residual[key] - best) / RESIDUAL_SCALE) ** 2 / 2)
-               if key in residual else 0.0 for key in obj.shape_size}
+    weights = {key: max(obj.shape_size[key], FEATURE_FLOOR) * math.exp(
+        -((residual[key] - best) / RESIDUAL_SCALE) ** 2 / 2) if key in residual else 0.0 for key in obj.shape_size}
     total = sum(weights.values())
     obj.shape_size = {key: w / total for key, w in weights.items()}
 
