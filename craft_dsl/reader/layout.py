@@ -40,6 +40,8 @@ LEVELS: tuple[tuple[float, int, int], ...] = ((2.0, 2, 3), (1.0, 1, 3), (0.0, 1,
 #: Coordinate searches before Gauss-Newton (places per draw, rounds over all draws): the next is tried while the fit
 #: is poor.
 SEARCHES: tuple[tuple[int, int], ...] = ((9, 2), (17, 4))
+#: Candidates whose blurred comparison is more than this many times the best one's are not fitted.
+RANK_MARGIN = 2.0
 #: A fit with a residual above this (grey levels, root mean square) tries the next candidate layout.
 GOOD_FIT_RMS = 4.0
 _FD = 1e-4
@@ -186,8 +188,10 @@ def fit_statics(model: LayoutModel, lum: np.ndarray, weight: np.ndarray, search_
                 du = u.copy()
                 du[j] += _FD if du[j] + _FD <= 1.0 else -_FD
                 jac[:, j] = (residual(du) - r) / (du[j] - u[j])
-            jtj = jac.T @ jac
-            step = np.linalg.solve(jtj + np.diag(1e-6 * np.diag(jtj) + 1e-9), -jac.T @ r)
+            # einsum, not BLAS: a multithreaded BLAS on a busy machine spends seconds on these tall products
+            jtj = np.einsum("ij,ik->jk", jac, jac)
+            jtr = np.einsum("ij,i->j", jac, r)
+            step = np.clip(np.linalg.solve(jtj + np.diag(1e-3 * np.diag(jtj) + 1e-6), -jtr), -0.2, 0.2)
             improved = False
             for alpha in (1.0, 0.5, 0.25, 0.1):
                 trial = np.clip(u + alpha * step, 0.0, 1.0)
@@ -205,7 +209,12 @@ def fit_statics(model: LayoutModel, lum: np.ndarray, weight: np.ndarray, search_
 def fit_layout(frames: np.ndarray, candidates: int = CANDIDATES, scene: int | None = None) -> StaticFit:
     """Identify the layout of a video (or take ``scene``) and fit its static draws."""
     lum, weight = observation(median_background(frames))
-    ranked = [scene] if scene is not None else [s for s, _ in rank_layouts(lum, weight)[:candidates]]
+    if scene is not None:
+        ranked = [scene]
+    else:
+        scores = rank_layouts(lum, weight)
+        # a layout far behind the best drawing (blurred) is not tried
+        ranked = [s for s, v in scores[:candidates] if v <= RANK_MARGIN * scores[0][1]]
     fits: dict[int, tuple[dict[str, float], float]] = {}
     for s in ranked:
         for points, rounds in SEARCHES:

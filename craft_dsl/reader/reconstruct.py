@@ -46,13 +46,13 @@ FIT_ITERATIONS = 8
 #: A body straying further than this from its track (pixels, in a frame where it is seen alone) triggers a refit.
 STRAY_PX = 3.0
 #: Refits on longer windows before the run is accepted as it is.
-REFITS = 3
+REFITS = 2
 #: Longest window (frames) of a refit: beyond it the engine runs cost more than they pin down.
-MAX_WINDOW = 240
+MAX_WINDOW = 150
 #: Frames measured exactly in a fit window: every one of the first DENSE_FRAMES, then about FIT_SAMPLES spread over
 #: the rest (the blob centroids fill in between).
 DENSE_FRAMES = 16
-FIT_SAMPLES = 40
+FIT_SAMPLES = 24
 #: Re-anchoring: restart this many frames before the first stray, fit the next ANCHOR_WINDOW frames, restart the
 #: bodies straying more than ANCHOR_MOVER_PX there; at most MAX_ANCHORS restarts per video.
 ANCHOR_BACK = 6
@@ -187,6 +187,7 @@ class StartFit:
         self.size = size
         n = len(model.layout.dynamic)
         self.uids = [n - 1 - s for s in range(n)]  # slot s gets uid n-1-s (last slot, uid 0)
+        self._static_bounds = model.bounds(self.static_values)
         # every draw the statics do not read: the slots' own, and variables only the slots read (a launch speed)
         free = [d for d in model.draws if d.path not in model.static_paths]
         self.paths = [d.path for d in free if isinstance(d.quantity, Uniform)]
@@ -200,7 +201,7 @@ class StartFit:
         return out
 
     def _unit_of(self, path: str, value: float) -> float:
-        lo, hi = self.model.bounds(self.static_values)[path]
+        lo, hi = self._static_bounds[path]
         return 0.5 if hi == lo else (value - lo) / (hi - lo)
 
     def world(self, units: np.ndarray, choice: Mapping[str, float]) -> WorldSpec:
@@ -264,10 +265,10 @@ class StartFit:
                 du = units.copy()
                 du[j] += _FD if du[j] + _FD <= 1.0 else -_FD
                 jac[:, j] = (self.residual(du, choice, frames) - r) / (du[j] - units[j])
-            live = np.any(jac != 0, axis=0)
-            step = np.zeros(len(self.paths))
-            if live.any():
-                step[live] = np.linalg.lstsq(jac[:, live], -r, rcond=None)[0]
+            # normal equations by einsum (a multithreaded BLAS is slow on a busy machine), lightly damped so that a
+            # draw the window does not see keeps its value
+            jtj = np.einsum("ij,ik->jk", jac, jac)
+            step = np.linalg.solve(jtj + np.diag(1e-9 * np.diag(jtj) + 1e-12), -np.einsum("ij,i->j", jac, r))
             improved = False
             for alpha in (1.0, 0.5, 0.25, 0.1, 0.03):
                 trial = np.clip(units + alpha * step, 0.0, 1.0)
@@ -521,10 +522,10 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
             dp[j] += steps_fd[j]
             jac[:, j] = (residual(dp) - r) / steps_fd[j]
         # Levenberg-Marquardt: a state the window does not pin down (a body at rest) keeps its value
-        jtj = jac.T @ jac
+        jtj = np.einsum("ij,ik->jk", jac, jac)
         damped = jtj + np.diag(1e-3 * np.diag(jtj) + 1e-6)
         limit = _ANCHOR_STEP_LIMIT[:params.size]
-        step = np.clip(np.linalg.solve(damped, -jac.T @ r), -limit, limit)
+        step = np.clip(np.linalg.solve(damped, -np.einsum("ij,i->j", jac, r)), -limit, limit)
         improved = False
         for alpha in (1.0, 0.5, 0.25, 0.1):
             trial = params + alpha * step

@@ -323,8 +323,11 @@ def verify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray)
     """Where the features leave a second (shape, size) possible, let the drawing decide: each candidate's
     probability is weighted by exp(-residual^2 / (2 * RESIDUAL_SCALE^2)) relative to the best."""
     ranked = sorted(obj.shape_size.items(), key=lambda kv: -kv[1])
-    # the three shapes of the likeliest size (the features tell sizes apart far better than small shapes)
+    # the three shapes of the likeliest size (the features tell sizes apart far better than small shapes); a large
+    # body's features decide alone unless a second reading is possible
     size = ranked[0][0][1]
+    if size == "large" and ranked[1][1] < 1e-4:
+        return
     candidates = [(shape, size) for shape in SHAPES]
     residual = {key: shape_residual(obj, frames, background, *key) for key in candidates}
     best = min(residual.values())
@@ -336,7 +339,7 @@ def verify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray)
     obj.shape_size = {key: w / total for key, w in weights.items()}
 
 
-def classify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, samples: int = 24) -> None:
+def classify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, samples: int = 16) -> None:
     """Probabilities of each (shape, size) from up to ``samples`` complete frames (see the module docstring)."""
     seen = [k for k in obj.seen() if not obj.blobs[k].touches_edge]  # type: ignore[union-attr]
     if not seen:
