@@ -88,8 +88,8 @@ def cmd_read(args: argparse.Namespace) -> int:
     unanswered = sum(1 for v in predictions.values() if v is None)
     if not args.quiet:
         mean = sum(perception_s) / len(perception_s) if perception_s else 0.0
-        videos = len(results) - len(failed)
-        print(f"wrote {args.out}: {len(predictions)} answers ({unanswered} unanswered) from {videos} videos; "
+        read = len(results) - len(failed)
+        print(f"wrote {args.out}: {len(predictions)} answers ({unanswered} unanswered) from {read} videos; "
               f"perception {mean:.2f} s per video", file=sys.stderr)
     for message in failed:
         print(f"error: {message}", file=sys.stderr)

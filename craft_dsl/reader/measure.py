@@ -105,21 +105,21 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
     if area <= 0:
         return None
     h, w = alpha.shape
-    ys = np.arange(h, dtype=np.float64)[:, None] + 0.5
-    xs = np.arange(w, dtype=np.float64)[None, :] + 0.5
-    cx = float((alpha * xs).sum() / area)
-    cy = float((alpha * ys).sum() / area)
-    dx, dy = xs - cx, ys - cy
+    rows = np.arange(h, dtype=np.float64)[:, None] + 0.5
+    cols = np.arange(w, dtype=np.float64)[None, :] + 0.5
+    cx = float((alpha * cols).sum() / area)
+    cy = float((alpha * rows).sum() / area)
+    dx, dy = cols - cx, rows - cy
     mxx = float((alpha * dx * dx).sum() / area)
     mxy = float((alpha * dx * dy).sum() / area)
     myy = float((alpha * dy * dy).sum() / area)
     radius = float(np.sqrt((dx * dx + dy * dy)[filled].max()))
     inner_eyes = eyes & interior
+    eye_x: float | None = None
+    eye_y: float | None = None
     if inner_eyes.any():
         ey, ex = np.nonzero(inner_eyes)
         eye_x, eye_y = float(ex.mean() + 0.5 + origin[1]), float(ey.mean() + 0.5 + origin[0])
-    else:
-        eye_x = eye_y = None
     border = filled[0].any() or filled[-1].any() or filled[:, 0].any() or filled[:, -1].any()
     ring = ndi.binary_dilation(filled, iterations=2) & ~filled
     cut = False

@@ -178,7 +178,7 @@ class StartFit:
     """Least-squares fit of the start draws against the measured centroids."""
 
     def __init__(self, model: LayoutModel, static_values: Mapping[str, float], attributes: Sequence[Attributes],
-                 observed: Mapping[int, np.ndarray], engine: PhysicsEngine, size: int = 256) -> None:
+                 observed: dict[int, np.ndarray], engine: PhysicsEngine, size: int = 256) -> None:
         self.model = model
         self.static_values = dict(static_values)
         self.attributes = list(attributes)

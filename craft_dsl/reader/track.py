@@ -153,19 +153,21 @@ def track(blobs: Sequence[Blob], frames: int, counts: dict[int, int] | None = No
         # seed the order of the bodies by area where all are first seen apart
         for k in range(frames):
             chosen = _assign(previous, areas, by_frame.get((color, k), []))
-            for i, b in enumerate(chosen):
-                if b is not None:
-                    tracks[i][k] = b
-                    previous[i] = (b.x, b.y)
-                    if not b.touches_edge:
-                        areas[i] = b.area if areas[i] is None else 0.9 * areas[i] + 0.1 * b.area
+            for i, chosen_blob in enumerate(chosen):
+                if chosen_blob is not None:
+                    tracks[i][k] = chosen_blob
+                    previous[i] = (chosen_blob.x, chosen_blob.y)
+                    if not chosen_blob.touches_edge:
+                        old = areas[i]
+                        areas[i] = chosen_blob.area if old is None else 0.9 * old + 0.1 * chosen_blob.area
         objects += [TrackedObject(color, t) for t in tracks]
     return objects
 
 
-def _position(obj: TrackedObject, k: int) -> tuple[float, float] | None:
+def _position(obj: TrackedObject, k: int) -> tuple[float, float]:
     b = obj.blobs[k]
-    return None if b is None else (b.x, b.y)
+    assert b is not None
+    return (b.x, b.y)
 
 
 def same_body(a: TrackedObject, b: TrackedObject) -> bool:
@@ -177,7 +179,7 @@ def same_body(a: TrackedObject, b: TrackedObject) -> bool:
         return False
     both = sa & sb
     if len(both) > 0.3 * min(len(sa), len(sb)):
-        close = sum(1 for k in both if math.dist(_position(a, k), _position(b, k)) < 8.0)  # type: ignore[arg-type]
+        close = sum(1 for k in both if math.dist(_position(a, k), _position(b, k)) < 8.0)
         if close < 0.8 * len(both):
             return False
     near = 0
@@ -186,7 +188,7 @@ def same_body(a: TrackedObject, b: TrackedObject) -> bool:
         for d in (1, -1, 2, -2, 3, -3):
             if k + d in sb:
                 checked += 1
-                near += math.dist(_position(a, k), _position(b, k + d)) < 12.0  # type: ignore[arg-type]
+                near += int(math.dist(_position(a, k), _position(b, k + d)) < 12.0)
                 break
     return checked >= 3 and near >= 0.8 * checked
 
@@ -288,11 +290,11 @@ def refine_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarray
         xs.append(m.x - (c * bx - s * by))
         ys.append(m.y + (s * bx + c * by))
         angles.append(a)
-    x, y, a, rms = refine(frames, background, shape, size, obj.color, todo, np.array(xs), np.array(ys),
-                          np.array(angles))
+    x, y, fitted, rms = refine(frames, background, shape, size, obj.color, todo, np.array(xs), np.array(ys),
+                               np.array(angles))
     for i, k in enumerate(todo):
         if np.isfinite(rms[i]) and rms[i] < MAX_REFINE_RMS:
-            obj.poses[k] = (float(x[i]), float(y[i]), float(a[i]))
+            obj.poses[k] = (float(x[i]), float(y[i]), float(fitted[i]))
 
 
 def shape_residual(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, shape: str, size: str,
