@@ -8,17 +8,23 @@ by running the physics engine itself:
 1. **Slots.** Each tracked body is given one of the layout's dynamic slots (Hungarian assignment): the cost is how
    far its first sighting lies from the slot's start region, plus the log-probability that its (shape, size) is
    one the slot allows. The slot fixes the creation order, hence the uniqueIDs and the engine's body order.
-2. **Start.** Gauss-Newton (finite differences, backtracking, each draw kept within its range) on the slots' start
-   draws, against the measured centroids of the first :data:`START_FRAMES` frames. The measurement model is the
-   body's centre plus its eye bias rotated by its simulated angle (:data:`EYE_BIAS`): the colour mask of a small
-   body misses the part its eyes cover. A choice draw (a launch speed out of a list) is tried option by option.
+2. **Start.** Gauss-Newton (finite differences, backtracking, each draw kept within its range) on the start draws
+   (the slots' own, and variables only the slots read) against the exact poses (render and compare,
+   :mod:`craft_dsl.reader.refine`) of the first :data:`START_FRAMES` frames, and colour centroids where there is no
+   exact pose (their measurement model adds the eye bias rotated by the simulated angle, :data:`EYE_BIAS`). A choice
+   draw (a launch speed out of a list) is tried option by option.
 3. **Check.** The whole run is simulated from the fitted start and compared with the tracks in every frame; while a
    body strays by more than :data:`STRAY_PX`, the start is refitted on all frames up to just before it strays (the
-   longer window pins the start down further), at most :data:`REFITS` times.
+   longer window pins the start down further), at most :data:`REFITS` times. If it still strays, the less likely
+   (shape, size) readings are tried (a body of the wrong shape makes the others stray too).
+4. **Re-anchoring.** Chaotic contacts amplify the last digits of any start: a body that still strays is restarted a
+   few frames before, its state there (position, angle, velocity, spin, with those of the other bodies that stray)
+   fitted to the next frames by Levenberg-Marquardt, and the run goes on from there (:func:`reanchor`,
+   :func:`stitch`), as long as each restart pushes the first stray later.
 
 What comes out is a live simulation (:class:`~craft_dsl.physics.live.LiveSimulation`): events from the engine's
-contact log, counterfactuals by clean re-simulation, exactly as for the ground truth. Where chaotic contacts make the
-run stray from the video even from the best start, it is kept as it is and the stray is reported.
+contact log, counterfactuals by clean re-simulation, exactly as for the ground truth. Where no restart helps, the run
+is kept as it is and its stray is reported.
 """
 
 from __future__ import annotations
@@ -61,7 +67,6 @@ ANCHOR_MOVER_PX = 1.0
 ANCHOR_ITERATIONS = 5
 MAX_ANCHORS = 6
 _ZERO6 = np.zeros(6)
-_DEBUG = False  # prints the re-anchoring fits (development aid)
 _ANCHOR_STEP_LIMIT = np.tile([0.5, 0.5, 0.5, 5.0, 5.0, 5.0], 16)
 #: Distances above this (pixels) count as this much in the score of a run.
 SCORE_CAP_PX = 20.0
@@ -536,8 +541,6 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
                 break
         if not improved:
             break
-    if _DEBUG:
-        print("reanchor", row, end, "movers", movers, "before", before, "after", cost, "n", r.size)
     if cost >= before:
         return None
     offsets = {uid: params[6 * i:6 * i + 6] for i, uid in enumerate(movers)}
