@@ -57,6 +57,7 @@ class Blob:
     x: float
     y: float
     touches_edge: bool  # reaches the frame border (maybe cut off)
+    touches_static: bool = False  # a gray piece next to a static's rim, where gray is not read (maybe cut off)
 
 
 @lru_cache(maxsize=1)
@@ -85,20 +86,26 @@ def clean_background(background: np.ndarray) -> np.ndarray:
     return (flat == WHITE) | (flat == SENSOR)
 
 
+def grid_rims(background: np.ndarray) -> np.ndarray:
+    """bool [H/GRID, W/GRID]: grid pixels where the background is not flat (statics and their rims)."""
+    out: np.ndarray = ~clean_background(background)[::GRID, ::GRID]
+    return out
+
+
 def grid_labels(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
     """Palette index per grid pixel, int8 [T, H/GRID, W/GRID]; body colours only over a clean background."""
     labels = lookup(frames[:, ::GRID, ::GRID])
     labels[labels >= WHITE] = UNLABELLED
-    rims = ~clean_background(background)[::GRID, ::GRID]
-    labels[(labels == GRAY) & rims[None]] = UNLABELLED
+    labels[(labels == GRAY) & grid_rims(background)[None]] = UNLABELLED
     return labels
 
 
-def blobs(labels: np.ndarray) -> list[Blob]:
+def blobs(labels: np.ndarray, rims: np.ndarray | None = None) -> list[Blob]:
     """Connected pieces of each body colour in each frame of grid labels.
 
     One labelling of every body-colour pixel; a piece holding two colours (bodies of different colours touching)
-    is split by colour."""
+    is split by colour. ``rims`` (bool [H/GRID, W/GRID]): where gray is not read; a gray piece next to them is
+    flagged as maybe cut off."""
     mask = labels >= 0
     pieces, n = ndi.label(mask, structure=_TIME_SEPARATE)
     if n == 0:
@@ -127,12 +134,17 @@ def blobs(labels: np.ndarray) -> list[Blob]:
     np.minimum.at(low_y, key, y)
     high_y = np.zeros(n_keys, dtype=np.int64)
     np.maximum.at(high_y, key, y)
+    near_rim = np.zeros(counts.size, dtype=bool)
+    if rims is not None:
+        grown = ndi.binary_dilation(rims, iterations=2)
+        hits = key[grown[y, x] & (color == GRAY)]
+        near_rim[np.unique(hits)] = True
     h, w = labels.shape[1:]
     out: list[Blob] = []
     for i, k in enumerate(present.tolist()):
         c = counts[k]
         edge = low_x[k] == 0 or low_y[k] == 0 or high_x[k] == w - 1 or high_y[k] == h - 1
         out.append(Blob(int(round(sums_t[i] / c)), k % WHITE, float(c) * GRID * GRID, GRID * sums_x[i] / c + 0.5,
-                        GRID * sums_y[i] / c + 0.5, bool(edge)))
+                        GRID * sums_y[i] / c + 0.5, bool(edge), bool(near_rim[k])))
     out.sort(key=lambda b: (b.frame, b.color, b.x))
     return out

@@ -22,7 +22,7 @@ from ..perception.export import export_perceived
 from ..perception.schema import PerceivedScene
 from ..render.raster import static_layer
 from ..world import WorldSpec
-from .detect import blobs, grid_labels
+from .detect import blobs, grid_labels, grid_rims
 from .layout import StaticFit, fit_layout
 from .layout_model import layout_model
 from .reconstruct import START_FRAMES, Reconstruction, fit_frames, reconstruct
@@ -60,7 +60,7 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     background = static_layer(WorldSpec(bodies=layout.statics), frames.shape[1])
     times["layout"] = time.perf_counter() - t
     t = time.perf_counter()
-    found = blobs(grid_labels(frames, background))
+    found = blobs(grid_labels(frames, background), grid_rims(background))
     objects = select_objects(merge_colour_splits(track(found, len(frames))), len(model.layout.dynamic))
     for obj in objects:
         classify_shape(obj, frames, background)

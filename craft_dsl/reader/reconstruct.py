@@ -98,7 +98,7 @@ def _observations(obj: TrackedObject, frames: int) -> np.ndarray:
     for k, b in enumerate(obj.blobs[:frames]):
         if k in obj.poses:
             out[k] = (obj.poses[k][0], obj.poses[k][1], 0.0)
-        elif b is not None and not b.touches_edge:
+        elif b is not None and not b.touches_edge and not b.touches_static:
             m = obj.measurements.get(k)
             if m is not None and m.complete:
                 out[k] = (m.x, m.y, 1.0)
@@ -358,15 +358,17 @@ def _distances(sim: LiveSimulation, fit: StartFit, frames: int) -> dict[int, np.
     return {s: np.hypot(*(pred[s] - obs[:frames, :2]).T) for s, obs in fit.observed.items()}
 
 
-def stray(sim: LiveSimulation, fit: StartFit, frames: int) -> tuple[dict[int, float], dict[int, int]]:
-    """Per uid: the largest distance (pixels) between the run and its track, and the first frame beyond STRAY_PX
-    (two frames in a row: a single one is a blob merged with a neighbour's rim)."""
+def stray(sim: LiveSimulation, fit: StartFit, frames: int, start: int = 0
+          ) -> tuple[dict[int, float], dict[int, int]]:
+    """Per uid: the largest distance (pixels) between the run and its track, and the first frame from ``start`` on
+    beyond STRAY_PX (two frames in a row: a single one is a blob merged with a neighbour's rim)."""
     worst: dict[int, float] = {}
     first: dict[int, int] = {}
     for s, d in _distances(sim, fit, frames).items():
         uid = fit.uids[s]
         ok = ~np.isnan(d)
         worst[uid] = float(np.max(d[ok])) if ok.any() else 0.0
+        ok[:start] = False
         over = np.nonzero(ok & (np.nan_to_num(d) > STRAY_PX))[0]
         runs = over[1:][np.diff(over) == 1] if over.size > 1 else np.zeros(0, dtype=int)
         if runs.size:
@@ -601,9 +603,11 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
         restarted = reanchor(sim, fit, frames, earliest, eng, refresh)
         if restarted is None:
             break
-        new_worst, new_first = stray(restarted, fit, frames)
+        # progress: from the restart on, the run follows the video longer than before (earlier frames are the old
+        # run's, whatever outliers they hold)
+        new_worst, new_first = stray(restarted, fit, frames, start=max(1, earliest - ANCHOR_BACK))
         if new_first and min(new_first.values()) <= earliest:
-            break  # no progress: the restart strays as early
+            break
         sim, worst, first = restarted, new_worst, new_first
         anchors += 1
     return Reconstruction(sim, fit.values(best.units, best.choice), list(slots), list(attributes), worst, first,
