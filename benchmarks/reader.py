@@ -159,6 +159,8 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--limit", type=int, help="read only the first N test videos (a quick look)")
     parser.add_argument("--json", help="write every figure and per-question record here")
+    parser.add_argument("--decoders", type=int, default=0,
+                        help="only compare the two decoders on this many of the test videos (median of 3 passes)")
     args = parser.parse_args()
     if args.generate:
         if not args.out:
@@ -188,6 +190,9 @@ def main() -> None:
         by_video[q.video_index].append(q)
     videos = sorted(by_video)[: args.limit] if args.limit else sorted(by_video)
     paths = find_videos(root / "videos", videos)
+    if args.decoders:
+        compare_decoders([paths[v] for v in videos[: args.decoders]])
+        return
     jobs = []
     for v in videos:
         stats = json.loads((root / "questions" / f"qa_{v:06d}.json").read_text())["stats"]
@@ -205,6 +210,27 @@ def main() -> None:
     load_after = os.getloadavg()
     print(file=sys.stderr)
     report(root, results, parts, elapsed, args.workers, load_before, load_after, args.json)
+
+
+def compare_decoders(paths: list[Path]) -> None:
+    """Seconds per video of each decoder (median of 3 passes per video), printed with their ratio."""
+    from craft_dsl.reader.video import decode, have_pyav
+
+    decoders = ["ffmpeg"] + (["pyav"] if have_pyav() else [])
+    times: dict[str, list[float]] = defaultdict(list)
+    for path in paths:
+        for name in decoders:
+            passes = []
+            for _ in range(3):
+                t = time.perf_counter()
+                decode(path, name)  # type: ignore[arg-type]
+                passes.append(time.perf_counter() - t)
+            times[name].append(float(np.median(passes)))
+    base = float(np.mean(times["ffmpeg"]))
+    print(f"decoding {len(paths)} videos (load average {os.getloadavg()[0]:.2f})")
+    for name in decoders:
+        m = float(np.mean(times[name]))
+        print(f"{name:7s}: {m:.3f} s per video, {m / base:.2f}x imageio-ffmpeg")
 
 
 def report(root: Path, results: list[dict[str, Any]], parts: dict[str, set[tuple[int, int]]], elapsed: float,

@@ -2,8 +2,9 @@
 
 Two decoders, both shipping their own FFmpeg: PyAV (in-process; the ``reader`` and ``torch`` extras) and
 imageio-ffmpeg (a core dependency; an ``ffmpeg`` subprocess writing raw frames to a pipe). Measured on the same
-600-frame MPEG-1 videos (``benchmarks/reader.py``), PyAV converting to RGB in-process is the faster one, so it is
-used when installed. Both decode single-threaded so that several videos can be read in parallel processes.
+600-frame MPEG-1 videos (``benchmarks/reader.py --decoders``), PyAV is the faster on an idle machine and uses less
+CPU in all, so it is used when installed; on a busy machine the pipe, whose decoder runs in its own process, can be
+faster (docs/reader.md). Both decode single-threaded so that several videos can be read in parallel processes.
 
 Raw MPEG-1 streams (``.mpg``, as the published dataset stores them) carry no trustworthy timestamps, so frames are
 taken by position: frame ``k`` shows the state after ``k + 1`` physics steps.
