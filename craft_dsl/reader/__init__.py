@@ -6,21 +6,30 @@
 >>> answer_questions(perception.scene, [Question(7, 0, "How many objects fall to the ground?")])  # doctest: +SKIP
 
 The video is derendered (layout, static poses, objects and attributes, tracks) and the simulation that reproduces it
-is reconstructed; programs then run over the perceived scene. See ``docs/reader.md``.
+is reconstructed; programs then run over the perceived scene. See ``docs/reader.md``. The names below load their
+modules on first use, so that ``craft-dsl`` starts without scipy.
 """
 
 from __future__ import annotations
 
-from .answer import Answer, Question, answer_questions, find_videos, read_questions
-from .perceive import Perception, perceive_frames, perceive_video
+import importlib
+from typing import Any
 
-__all__ = [
-    "Answer",
-    "Perception",
-    "Question",
-    "answer_questions",
-    "find_videos",
-    "perceive_frames",
-    "perceive_video",
-    "read_questions",
-]
+_EXPORTS = {
+    "Answer": "answer",
+    "Question": "answer",
+    "answer_questions": "answer",
+    "find_videos": "answer",
+    "read_questions": "answer",
+    "Perception": "perceive",
+    "perceive_frames": "perceive",
+    "perceive_video": "perceive",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _EXPORTS:
+        return getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -14,17 +14,20 @@ import time
 from collections import defaultdict
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..atomic import atomic_path, write_json_atomic
 from ..errors import CraftError, ReaderError
-from .answer import Answer, Question, answer_questions, find_videos, read_questions
 from .video import DECODERS
+
+if TYPE_CHECKING:
+    from .answer import Answer, Question
 
 
 def read_video(path: str, questions: list[Question], decoder: str = "auto", distribution: bool = False,
                samples: int = 64) -> dict[str, Any]:
     """Perceive one video and answer its questions (the unit of work of ``--workers``)."""
+    from .answer import answer_questions
     from .perceive import perceive_video
 
     t = time.perf_counter()
@@ -40,6 +43,8 @@ def read_video(path: str, questions: list[Question], decoder: str = "auto", dist
 
 
 def cmd_read(args: argparse.Namespace) -> int:
+    from .answer import find_videos, read_questions
+
     questions = read_questions(args.questions)
     by_video: dict[int, list[Question]] = defaultdict(list)
     for q in questions:
