@@ -249,3 +249,10 @@ def test_read_runs_as_a_command(users_dataset: Path, tmp_path: Path) -> None:
                           "--questions", str(work / "questions.json"), "--out", str(preds)],
                          capture_output=True, text=True, check=False)
     assert bad.returncode == 2 and bad.stderr.startswith("error: --videos")
+
+
+def test_the_command_line_starts_without_the_pipeline() -> None:
+    probe = ("from craft_dsl.cli import build_parser\nbuild_parser()\nimport sys\n"
+             "print('scipy' in sys.modules, 'craft_dsl.reader.perceive' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout.split()
+    assert out == ["False", "False"]
