@@ -63,6 +63,9 @@ FIT_SAMPLES = 24
 #: bodies straying more than ANCHOR_MOVER_PX there; at most MAX_ANCHORS restarts per video.
 ANCHOR_BACK = 6
 ANCHOR_WINDOW = 36
+#: (frames back, window) of each restart tried in turn: the default, then one further back on a shorter window
+#: (the stray may have begun at a bounce some frames before it shows).
+ANCHOR_TRIES: tuple[tuple[int, int], ...] = ((ANCHOR_BACK, ANCHOR_WINDOW), (16, 24))
 ANCHOR_MOVER_PX = 1.0
 ANCHOR_ITERATIONS = 5
 MAX_ANCHORS = 6
@@ -479,13 +482,14 @@ def stitch(base: RawRun, tail: RawRun, row: int) -> RawRun:
 
 
 def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, eng: PhysicsEngine,
-             refresh: Callable[[Sequence[int]], None] | None) -> LiveSimulation | None:
+             refresh: Callable[[Sequence[int]], None] | None, back: int = 6, window: int = 36
+             ) -> LiveSimulation | None:
     """Restart the bodies that stray from the video a few frames before ``first_stray``, their state there fitted
     to the next :data:`ANCHOR_WINDOW` frames (Gauss-Newton on position, angle, velocity and spin of each), and run on
     to the end. None when the fit does not follow the window better than the run it replaces."""
     steps = sim.raw.log.steps
-    row = max(1, first_stray - ANCHOR_BACK)
-    end = min(frames, row + ANCHOR_WINDOW)
+    row = max(1, first_stray - back)
+    end = min(frames, row + window)
     if end - row < 4:
         return None
     if refresh is not None:
@@ -600,15 +604,21 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
 
     while first and anchors < MAX_ANCHORS:
         earliest = min(first.values())
-        restarted = reanchor(sim, fit, frames, earliest, eng, refresh)
-        if restarted is None:
+        progressed = False
+        for back, window in ANCHOR_TRIES:
+            restarted = reanchor(sim, fit, frames, earliest, eng, refresh, back, window)
+            if restarted is None:
+                continue
+            # progress: from the restart on, the run follows the video longer than before (earlier frames are the
+            # old run's, whatever outliers they hold)
+            new_worst, new_first = stray(restarted, fit, frames, start=max(1, earliest - back))
+            if new_first and min(new_first.values()) <= earliest:
+                continue
+            sim, worst, first = restarted, new_worst, new_first
+            anchors += 1
+            progressed = True
             break
-        # progress: from the restart on, the run follows the video longer than before (earlier frames are the old
-        # run's, whatever outliers they hold)
-        new_worst, new_first = stray(restarted, fit, frames, start=max(1, earliest - ANCHOR_BACK))
-        if new_first and min(new_first.values()) <= earliest:
+        if not progressed:
             break
-        sim, worst, first = restarted, new_worst, new_first
-        anchors += 1
     return Reconstruction(sim, fit.values(best.units, best.choice), list(slots), list(attributes), worst, first,
                           best.window, best.refits, anchors)
