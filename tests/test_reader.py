@@ -256,3 +256,22 @@ def test_the_command_line_starts_without_the_pipeline() -> None:
              "print('scipy' in sys.modules, 'craft_dsl.reader.perceive' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True).stdout.split()
     assert out == ["False", "False"]
+
+
+def test_shade_body_draws_a_body_as_the_renderer_does() -> None:
+    from craft_dsl.render.raster import shade_body
+
+    world = sample_world(3, 0)
+    body = make_dynamic(0, "triangle", "cyan", "small", (-3.3, 20.7))
+    scene = WorldSpec(bodies=tuple(b for b in world.bodies if not b.dynamic) + (body,))
+    sim = simulate(scene, steps=1)
+    frame = render_frames(sim)[0].astype(np.float32)
+    column = sim.trajectory.column(0)
+    x, y = world_to_pixel(*sim.trajectory.positions[1, column])
+    angle = sim.trajectory.angles[1, column]
+    x0, y0, w = int(x) - 12, int(y) - 12, 24
+    alpha, base = shade_body(body.geometry, "cyan", np.array([x]), np.array([y]), np.array([angle]),
+                             np.array([x0]), np.array([y0]), w)
+    background = static_layer(world)[y0:y0 + w, x0:x0 + w].astype(np.float32)
+    drawn = background * (1.0 - alpha[0, ..., None]) + base[0]
+    assert np.abs(drawn - frame[y0:y0 + w, x0:x0 + w]).max() <= 1.0  # the renderer rounds to uint8
