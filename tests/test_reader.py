@@ -275,3 +275,19 @@ def test_shade_body_draws_a_body_as_the_renderer_does() -> None:
     background = static_layer(world)[y0:y0 + w, x0:x0 + w].astype(np.float32)
     drawn = background * (1.0 - alpha[0, ..., None]) + base[0]
     assert np.abs(drawn - frame[y0:y0 + w, x0:x0 + w]).max() <= 1.0  # the renderer rounds to uint8
+
+
+def test_read_gives_probabilities_with_the_distribution(users_dataset: Path, tmp_path: Path) -> None:
+    work = _stripped_copy(users_dataset, tmp_path / "stripped")
+    questions = json.loads((work / "questions.json").read_text())
+    first = questions[0]["video_index"]
+    (work / "questions.json").write_text(json.dumps([q for q in questions if q["video_index"] == first]))
+    preds, details = tmp_path / "preds.json", tmp_path / "details.jsonl"
+    assert main(["read", "--videos", str(work / "videos"), "--questions", str(work / "questions.json"), "--out",
+                 str(preds), "--details", str(details), "--distribution", "--samples", "16", "--quiet"]) == 0
+    predictions = json.loads(preds.read_text())
+    lines = [json.loads(line) for line in details.read_text().splitlines()]
+    assert len(lines) == len(predictions)
+    for line in lines:
+        assert predictions[f"{line['video_index']}_{line['question_index']}"] == line["answer"]
+        assert 0.0 < line["probability"] <= 1.0 and line["program"]
