@@ -8,23 +8,21 @@ import json
 import os
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 from .errors import CraftError
+from .files import read_json, read_text
 from .program import Program, format_value, to_json
 from .registry import MODULES
 
 EXIT_USAGE = 2
+#: Program files and node lists larger than this are refused (a 5,000-binding program is about 200 KB).
+MAX_PROGRAM_BYTES = 64 << 20
 
 
 def _read_program(text: str) -> str:
     if text.startswith("@"):
-        path = Path(text[1:])
-        try:
-            return path.read_text(encoding="utf-8")
-        except OSError as err:
-            raise CraftError(f"cannot read program file {path}: {err.strerror}") from None
+        return read_text(text[1:], "program file", max_bytes=MAX_PROGRAM_BYTES)
     return text
 
 
@@ -40,12 +38,7 @@ def _params(pairs: Sequence[str]) -> dict[str, str]:
 
 def _load_program(args: argparse.Namespace) -> Program:
     if getattr(args, "nodes", None):
-        try:
-            data = json.loads(Path(args.nodes).read_text(encoding="utf-8"))
-        except OSError as err:
-            raise CraftError(f"cannot read node list {args.nodes}: {err.strerror}") from None
-        except json.JSONDecodeError as err:
-            raise CraftError(f"{args.nodes}: not valid JSON (line {err.lineno}, column {err.colno})") from None
+        data = read_json(args.nodes, "node list", max_bytes=MAX_PROGRAM_BYTES)
         if isinstance(data, dict):  # a question record or {"nodes": [...]}
             data = data.get("program", data.get("nodes", data))
         return Program.from_nodes(data, _params(args.param))
@@ -60,7 +53,7 @@ def _simulation(args: argparse.Namespace) -> Any:
     if args.sim:
         from .recorded import load_simulation
 
-        return load_simulation(args.sim)
+        return load_simulation(args.sim, strict=args.strict)
     if args.scene is None:
         raise CraftError("give a simulation: --sim FILE (recorded) or --scene N [--seed S] (live physics)")
     from .physics import simulate
@@ -136,6 +129,8 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--nodes", help="read the program as a CLEVR/CRAFT node list from this JSON file")
     run.add_argument("--param", action="append", default=[], metavar="<Z>=small",
                      help="bind a template placeholder of a node list (repeatable)")
+    run.add_argument("--strict", action="store_true",
+                     help="also refuse a --sim file the original simulator could not have written (docs/recorded.md)")
     run.add_argument("--json", action="store_true", help="print JSON")
     run.add_argument("--trace", action="store_true", help="print every node's value")
     run.set_defaults(func=cmd_run)
@@ -178,7 +173,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+    except (OSError, UnicodeError, RecursionError, MemoryError) as err:
+        # Readers turn these into CraftError naming the file and the field; whatever still arrives here is named
+        # as well as it can be, never shown as a traceback.
+        print(f"error: {_describe_failure(err)}", file=sys.stderr)
+        return EXIT_USAGE
     return int(result or 0)
+
+
+def _describe_failure(err: BaseException) -> str:
+    """A one-line message for an error no reader turned into a CraftError."""
+    if isinstance(err, OSError):
+        name = f"{err.filename}: " if err.filename else ""
+        return f"{name}{err.strerror or err}"
+    if isinstance(err, UnicodeError):
+        return f"text that is not UTF-8: {err}"
+    if isinstance(err, RecursionError):
+        return "the input is nested too deeply to be processed"
+    return "out of memory: the input is too large to be processed in memory"
 
 
 if __name__ == "__main__":

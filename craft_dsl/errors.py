@@ -74,8 +74,46 @@ class TokenError(ProgramError):
     """A program token sequence is malformed (unknown token, too few or too many tokens)."""
 
 
-class SimulationFileError(CraftError):
+class InputFileError(CraftError):
+    """An input file cannot be read as asked, or its content is malformed.
+
+    Raised for a missing file, a directory, an unreadable file, text that is not UTF-8, invalid JSON, JSON
+    nested too deeply, a key given twice in one object, or a number out of range (see docs/errors.md).
+    ``path`` is the file (None for data handed over in memory), ``line``/``column`` (1-based) locate the
+    problem in the file's text where known, ``field`` names the JSON field (``"variations_outputs.3"``).
+    The subclasses name the kind of file.
+    """
+
+    def __init__(self, message: str, *, path: str | None = None, line: int | None = None,
+                 column: int | None = None, field: str | None = None) -> None:
+        super().__init__(message)
+        self.path = path
+        self.line = line
+        self.column = column
+        self.field = field
+
+
+class SimulationFileError(InputFileError):
     """A recorded simulation file is malformed; the message names the defect."""
+
+
+class SceneFileError(InputFileError):
+    """A scene layout file is malformed or cannot be sampled; the message names file, field and what is
+    allowed."""
+
+
+class ExpressionError(CraftError, ValueError):
+    """An expression string of a scene layout is not in the safe arithmetic subset, or cannot be evaluated."""
+
+
+class DatasetFileError(InputFileError):
+    """A dataset file (``dataset.json``, ``dataset_minimal.json``, ``annotations.json``, a split file) is
+    malformed; the message names file, record and field."""
+
+
+class PredictionsFileError(InputFileError):
+    """A predictions file is malformed (a key given twice, an answer out of range...); the message names file,
+    record and field."""
 
 
 class CounterfactualUnavailable(CraftError):

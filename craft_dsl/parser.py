@@ -16,6 +16,7 @@ from .ir import Value
 from .registry import NAMES, ModuleSpec
 from .resources import data_dir
 from .syntax import Binding, Call, Expr, Literal, Ref, Tree
+from .types import integer_literal
 
 _QUOTES = '"\u201c\u201d'
 
@@ -45,7 +46,10 @@ class _ToSyntax(Transformer):
 
     def integer(self, t: LarkTree) -> Literal:
         (tok,) = cast(list[Any], t.children)
-        return Literal(int(tok), _pos(tok))
+        try:
+            return Literal(integer_literal(str(tok)), _pos(tok))
+        except ValueError as err:
+            raise ParseError(str(err), *_pos(tok)) from None
 
     def ref(self, t: LarkTree) -> Ref:
         (tok,) = cast(list[Any], t.children)
@@ -172,7 +176,7 @@ def fast_check(text: str) -> CheckedProgram | None:
                 node, value = None, tok[1:-1]
                 i += 1
             elif first in _INT_START and tok != "-":
-                node, value = None, int(tok)
+                node, value = None, integer_literal(tok)
                 i += 1
             else:
                 return None
@@ -196,7 +200,7 @@ def fast_check(text: str) -> CheckedProgram | None:
                 if tok != ")":
                     return None
                 node = _close(builder, frames.pop(), sources)
-    except (IndexError, ProgramError):
+    except (IndexError, ValueError, ProgramError):
         return None
 
 
