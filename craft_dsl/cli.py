@@ -53,7 +53,7 @@ def _simulation(args: argparse.Namespace) -> Any:
     if args.sim:
         from .recorded import load_simulation
 
-        return load_simulation(args.sim, strict=args.strict)
+        return load_simulation(args.sim, strict=getattr(args, "strict", False))
     if args.scene is None:
         raise CraftError("give a simulation: --sim FILE (recorded) or --scene N [--seed S] (live physics)")
     from .physics import simulate

@@ -47,14 +47,13 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 
 def cmd_score(args: argparse.Namespace) -> int:
-    from .verify import read_predictions, read_questions, read_split, score
+    from .verify import read_questions, read_split, score
 
     if args.part and not args.split:
         raise CraftError("--part needs --split FILE")
     questions = read_questions(args.questions)
-    predictions = read_predictions(args.predictions)
     keys = read_split(args.split, args.part or "test") if args.split else None
-    report = score(questions, predictions, split=keys)
+    report = score(questions, args.predictions, split=keys)  # the predictions file is read as a stream
     if args.json:
         out = report.to_json()
         if args.compare_paper:
@@ -113,7 +112,8 @@ def add_commands(subparsers: Any) -> None:
     sc.add_argument("--questions", required=True, help="dataset_minimal.json or dataset.json")
     sc.add_argument("--predictions", required=True,
                     help='predictions JSON: {"<video_index>_<question_index>": answer} or a list of '
-                         '{"video_index", "question_index", "answer"}')
+                         '{"video_index", "question_index", "answer"}, or JSON Lines (.jsonl) of such records; '
+                         'read as a stream')
     sc.add_argument("--split", help="split_info_random.json or split_info_hard.json: score one part only")
     sc.add_argument("--part", help="part of the split to score (train, validation, test; default test)")
     sc.add_argument("--json", action="store_true", help="print the report as JSON")
@@ -141,4 +141,9 @@ def run(argv: Sequence[str]) -> int:
         return int(args.func(args))
     except CraftError as err:
         print(f"error: {err}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except (OSError, RecursionError, MemoryError) as err:  # as the main CLI: a message, never a traceback
+        from .cli import _describe_failure
+
+        print(f"error: {_describe_failure(err)}", file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -313,7 +313,7 @@ def test_evaluate_command(fixture_dir: Path, tmp_path: Path, capsys: pytest.Capt
     bad.write_text('{"0_0": {"trace": {"99": 1}}}')
     assert main(["evaluate", "--dataset", str(fixture_dir), "--predictions", str(bad)]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("error: ") and "bad.json: record '0_0', field 'trace': node 99" in err
+    assert err.startswith("error: ") and "bad.json: key '0_0', field 'trace': node 99" in err
 
 
 def test_vocab_and_export_pairs(fixture_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
