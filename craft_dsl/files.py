@@ -57,17 +57,32 @@ def read_bytes(path: PathLike, what: str, *, error: ErrorType = InputFileError,
     name = str(p)
     try:
         with open(p, "rb") as fh:
-            data = fh.read(max_bytes + 1)
+            size = os.fstat(fh.fileno()).st_size
+            too_large = size > max_bytes  # refused below without reading it
+            data = b"" if too_large else fh.read() if size else _read_at_most(fh, max_bytes)
     except FileNotFoundError:
         raise error(f"{name}: no such file (expected the {what})", path=name) from None
     except IsADirectoryError:
         raise error(f"{name}: is a directory; expected the {what} (a file)", path=name) from None
     except OSError as err:
         raise error(f"{name}: cannot read the {what}: {err.strerror or err}", path=name) from None
-    if len(data) > max_bytes:
+    if too_large or len(data) > max_bytes:
         raise error(f"{name}: the {what} is larger than {max_bytes:,} bytes, the most this reader holds in memory",
                     path=name)
     return data
+
+
+def _read_at_most(fh: Any, max_bytes: int) -> bytes:
+    """The bytes of a file without a size (a pipe, a device), or ``max_bytes + 1`` of them if it is longer."""
+    chunks: list[bytes] = []
+    total = 0
+    while total <= max_bytes:
+        chunk = fh.read(min(1 << 20, max_bytes + 1 - total))
+        if not chunk:
+            break
+        chunks.append(chunk)
+        total += len(chunk)
+    return chunks[0] if len(chunks) == 1 else b"".join(chunks)
 
 
 def decode_text(data: bytes, where: str, what: str, *, error: ErrorType = InputFileError,

@@ -21,7 +21,7 @@ from ..errors import DatasetFileError, PredictionsFileError
 from ..files import describe, read_json
 from ..jsonstream import iter_lines, iter_members
 from ..templates import templates
-from .answers import answer_problem
+from .answers import MAX_ANSWER_DIGITS, answer_problem
 from .categories import category_of, family_of, question_type_of
 
 PathLike = Union[str, "os.PathLike[str]"]
@@ -246,7 +246,13 @@ _KEY = re.compile(r"\s*([0-9]{1,12})_([0-9]{1,12})\s*")
 
 def parse_key(key: Any) -> tuple[int, int] | None:
     """``(video_index, question_index)`` of a ``"<video_index>_<question_index>"`` key, or None."""
-    m = _KEY.fullmatch(key) if isinstance(key, str) else None
+    if type(key) is not str:
+        return None
+    video, sep, question = key.partition("_")
+    if sep and 0 < len(video) <= 12 and 0 < len(question) <= 12 and key.isascii() and video.isdigit() \
+            and question.isdigit():
+        return (int(video), int(question))  # the common case, without the regular expression
+    m = _KEY.fullmatch(key)
     return (int(m.group(1)), int(m.group(2))) if m else None
 
 
@@ -279,15 +285,8 @@ class PredictionEntries:
         return f"{self.name}: {'line' if self.form == 'lines' else 'record'} {label}"
 
     def __iter__(self) -> Iterator[tuple[tuple[int, int], Any, Any]]:
-        if self.in_memory:
-            items: Any = self._memory_items()
-        elif self.form == "lines":
-            items = (("array", n, record) for n, record in iter_lines(self.source, "predictions file",  # type: ignore
-                                                                       error=PredictionsFileError))
-        else:
-            items = iter_members(self.source, "predictions file", error=PredictionsFileError)  # type: ignore
-        for form, label, value in items:
-            if form == "object":
+        for label, value in self._items():
+            if type(label) is str:
                 self.form = "object"
                 key = parse_key(label)
                 if key is None:
@@ -298,18 +297,54 @@ class PredictionEntries:
                     self.form = "array"
                 yield self._record_key(value, label), value, label
 
+    def answers(self) -> Iterator[tuple[tuple[int, int], Any, Any]]:
+        """``(key, answer, label)`` of every entry: the value, or the ``answer`` field of an object or record
+        (see :func:`prediction_answer`). One loop for the common object form: it runs once per prediction."""
+        items = self._items()
+        for label, value in items:
+            if type(label) is not str:
+                for key, value2, label2 in self._records(label, value, items):
+                    yield key, prediction_answer(value2, self, label2), label2
+                return
+            self.form = "object"
+            video, sep, question = label.partition("_")
+            if sep and len(label) <= 25 and label.isascii() and video.isdigit() and question.isdigit():
+                key = (int(video), int(question))
+            else:
+                found = parse_key(label)
+                if found is None:
+                    raise PredictionsFileError(f"{self.name}: {_key_problem(label)}", path=self._path)
+                key = found
+            if type(value) is str and len(value) <= MAX_ANSWER_DIGITS:  # a short text is always a valid answer
+                yield key, value, label
+            else:
+                yield key, prediction_answer(value, self, label), label
+
+    def _records(self, label: Any, value: Any, items: Iterator[tuple[Any, Any]]) -> Iterator[tuple[Any, Any, Any]]:
+        if self.form == "object":
+            self.form = "array"
+        yield self._record_key(value, label), value, label
+        for label, value in items:
+            yield self._record_key(value, label), value, label
+
+    def _items(self) -> Iterator[tuple[Any, Any]]:
+        if self.in_memory:
+            return self._memory_items()
+        if self.form == "lines":
+            return iter_lines(self.source, "predictions file", error=PredictionsFileError)  # type: ignore[arg-type]
+        return iter_members(self.source, "predictions file", error=PredictionsFileError)  # type: ignore[arg-type]
+
     @property
     def _path(self) -> str | None:
         return None if self.in_memory else self.name
 
-    def _memory_items(self) -> Iterator[tuple[str, Any, Any]]:
+    def _memory_items(self) -> Iterator[tuple[Any, Any]]:
         data = self.source
         if isinstance(data, Mapping):
             for k, v in data.items():
-                yield "object", k, v
+                yield (k if type(k) is str else describe(k)), v
         elif isinstance(data, list):
-            for i, v in enumerate(data):
-                yield "array", i, v
+            yield from enumerate(data)
         else:
             raise PredictionsFileError(f"{self.name}: expected an object {{'<video>_<question>': answer}} or a list "
                                        f"of {{video_index, question_index, answer}}, found {type(data).__name__}")
@@ -357,14 +392,6 @@ def prediction_answer(value: Any, entries: PredictionEntries, label: Any) -> Any
     if problem is not None:
         raise PredictionsFileError(f"{at}: {problem}", path=entries._path)
     return answer
-
-
-def iter_prediction_answers(source: PathLike | Mapping[str, Any] | Sequence[Any],
-                            name: str | None = None) -> Iterator[tuple[tuple[int, int], Any, str]]:
-    """``(key, answer, where)`` for every prediction of a file (streamed) or of parsed JSON."""
-    entries = PredictionEntries(source, name)
-    for key, value, label in entries:
-        yield key, prediction_answer(value, entries, label), entries.where(label)
 
 
 def parse_predictions(data: Any, name: str = "predictions") -> dict[tuple[int, int], Any]:
