@@ -8,7 +8,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from .errors import (
     CounterfactualUnavailable,
@@ -26,11 +26,14 @@ from .errors import (
 )
 from .program import Program, parse
 from .question_parsing import QuestionMatch, match_question, question_to_program
-from .recorded import load_simulation, save_simulation
 from .registry import MODULES, REGISTRY
 from .simulation import Event, ObjectState, SimObject, Simulation, Trajectory
 from .types import INVALID, DslType
 from .world import BodySpec, Geometry, WorldSpec
+
+if TYPE_CHECKING:
+    from .physics import simulate
+    from .recorded import load_simulation, save_simulation
 
 __all__ = [
     "INVALID",
@@ -70,9 +73,13 @@ __version__ = "0.1.0"
 
 
 def __getattr__(name: str) -> Any:
-    # Physics loads pymunk; import it only when asked for.
+    # Physics (pymunk) and the recorded-file loader (pydantic) load on first use: `import craft_dsl` stays light.
     if name == "simulate":
         from .physics import simulate
 
         return simulate
+    if name in ("load_simulation", "save_simulation"):
+        from . import recorded
+
+        return getattr(recorded, name)
     raise AttributeError(f"module 'craft_dsl' has no attribute {name!r}")

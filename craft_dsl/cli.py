@@ -116,7 +116,10 @@ def cmd_modules(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from . import __version__
+
     parser = argparse.ArgumentParser(prog="craft-dsl", description="Typed DSL for CRAFT causal video QA.")
+    parser.add_argument("--version", action="version", version=f"craft-dsl {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     run = sub.add_parser("run", help="run a program over a recorded simulation")
@@ -147,7 +150,8 @@ def build_parser() -> argparse.ArgumentParser:
     mods.set_defaults(func=cmd_modules)
 
     for name in ("craft_dsl.demo", "craft_dsl.physics.cli", "craft_dsl.render.cli", "craft_dsl.verify_cli",
-                 "craft_dsl.dataset.cli", "craft_dsl.oracle.cli", "craft_dsl.ask_cli"):
+                 "craft_dsl.dataset.cli", "craft_dsl.oracle.cli", "craft_dsl.ask_cli", "craft_dsl.dataset.hf_cli",
+                 "craft_dsl.dataset.stats_cli", "craft_dsl.viewer.cli"):
         try:
             module = importlib.import_module(name)
         except ImportError as err:

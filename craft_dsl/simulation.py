@@ -11,13 +11,13 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-import networkx as nx
-import numpy as np
-
 from .errors import CounterfactualUnavailable, EvaluationError, SimulationFileError
 from .vocabulary import END, MOVING_THRESHOLD, START
 
 if TYPE_CHECKING:
+    import networkx as nx
+    import numpy as np
+
     from .world import WorldSpec
 
 
@@ -109,6 +109,8 @@ def causal_graph_from_events(events: Sequence[Event], dynamic_ids: Iterable[int]
     last event of every body that has any event. Static bodies never carry causality forward. Events
     are taken in (step, id) order, so "latest" is by step (the original used its insertion order).
     """
+    import networkx as nx  # a causal graph is built only when asked for: keep `import craft_dsl` light
+
     dynamic = set(dynamic_ids)
     graph = nx.DiGraph()
     start = next((e for e in events if e.type == START), None)

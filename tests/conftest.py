@@ -141,3 +141,20 @@ def basic_sim() -> Simulation:
          (140, "Collision", 1, 6), (145, "TouchStart", 6, 1)],
         {3: [(40, "Collision", 0, 4)], 2: [(85, "EnterBasket", 5, 3)], 1: [], 0: [(40, "Collision", 3, 2)]},
     )
+
+
+# -- a small generated dataset with videos, shared by the tests of the dataset's user-facing parts -------------
+
+#: 6 videos over scenes 1 (hard split: train), 8 (validation) and 11 (test), 200 steps, MPEG-1 videos.
+USERS_DATASET = {"size": 6, "seed": 0, "scenes": (1, 8, 11), "steps": 200, "perturbations": 0, "balance": False,
+                 "videos": True}
+
+
+@pytest.fixture(scope="session")
+def users_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A dataset folder written by ``generate_dataset`` with ``videos=True`` (read-only for tests: copy to change)."""
+    from craft_dsl.dataset.pipeline import GenerationConfig, generate_dataset
+
+    out = tmp_path_factory.mktemp("users") / "craft6"
+    generate_dataset(GenerationConfig.make(**USERS_DATASET), out)
+    return out

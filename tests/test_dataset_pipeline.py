@@ -32,7 +32,7 @@ from craft_dsl.verify import (
 
 def rec(video: int, qi: int, tid: str, answer: Any, text: str = "What?") -> dict[str, Any]:
     family, index = tid.rsplit("_", 1)
-    path = f"./videos/sid_1/{video:06d}.mp4"
+    path = f"./videos/sid_1/{video:06d}.mpg"
     return {"video_filename": path, "video_index": video, "video": f"{video:06d}", "question": text,
             "program": [{"type": "scene", "inputs": [], "value_inputs": [], "_output": []}], "answer": answer,
             "template_filename": f"{family}.json", "question_family_index": int(index), "question_index": qi,
@@ -192,7 +192,7 @@ def test_writers_are_read_by_verify(tmp_path: Path) -> None:
     scene_of = {1: 2, 3: 7}
     dataset = P.dataset_videos(records, scene_of)
     assert [v["questions"]["info"]["video_index"] for v in dataset] == [1, 3]
-    assert dataset[1]["simulation_id"] == "7" and dataset[1]["video_path"] == "./videos/sid_7/000003.mp4"
+    assert dataset[1]["simulation_id"] == "7" and dataset[1]["video_path"] == "./videos/sid_7/000003.mpg"
     assert [q["question_index"] for q in dataset[1]["questions"]["questions"]] == [0, 1]
     questions = parse_dataset(json.loads(json.dumps(dataset)))
     assert {(q.video_index, q.question_index, q.answer) for q in questions} == {(1, 4, 2), (3, 0, True),

@@ -187,7 +187,7 @@ def test_failed_write_leaves_nothing(tmp_path: Path) -> None:
     with pytest.raises(RuntimeError, match="interrupted"):
         write_frames(broken(), tmp_path / "v.mp4")  # type: ignore[arg-type]
     assert list(tmp_path.iterdir()) == []
-    with pytest.raises(RenderError, match="allowed: .mp4, .gif"):
+    with pytest.raises(RenderError, match="allowed: .mpg, .mp4, .gif"):
         write_video(sim, tmp_path / "v.avi")
     assert list(tmp_path.iterdir()) == []
 

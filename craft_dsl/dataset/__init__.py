@@ -1,4 +1,6 @@
-"""Dataset generation: per-video questions (questions.py) and the dataset pipeline (pipeline.py)."""
+"""Dataset generation and use: per-video questions (questions.py), the dataset pipeline (pipeline.py), the
+published media layout (layout.py), reading a dataset folder (folder.py), Hugging Face files (hf.py), statistics
+and baselines (stats.py) with their charts (charts.py)."""
 
 from .pipeline import GenerationConfig as GenerationConfig
 from .pipeline import generate_dataset as generate_dataset

@@ -14,7 +14,7 @@ from typing import Any
 from ..errors import CraftError
 
 
-def _int_list(text: str) -> tuple[int, ...]:
+def _int_list(text: str, option: str = "--scenes", example: str = "scene ids like 1,2,5-7") -> tuple[int, ...]:
     """``"1,2,5-7"`` -> (1, 2, 5, 6, 7)."""
     out: list[int] = []
     for part in text.split(","):
@@ -25,7 +25,7 @@ def _int_list(text: str) -> tuple[int, ...]:
         try:
             out.extend(range(int(lo), int(hi) + 1) if sep else [int(lo)])
         except ValueError:
-            raise CraftError(f"--scenes {text!r}: expected scene ids like 1,2,5-7") from None
+            raise CraftError(f"{option} {text!r}: expected {example}") from None
     return tuple(out)
 
 
@@ -35,7 +35,9 @@ def cmd_generate(args: argparse.Namespace) -> int:
     fields: dict[str, Any] = {"size": args.size, "seed": args.seed, "steps": args.steps,
                               "perturbations": args.perturbations, "amount": args.amount,
                               "workers": args.workers, "videos": args.videos, "engine": args.engine,
-                              "balance": not args.no_balance}
+                              "balance": not args.no_balance, "video_format": args.video_format}
+    if args.downsampled:
+        fields["downsampled"] = _int_list(args.downsampled, "--downsampled", "frame rates like 5,10")
     if args.scenes is not None:
         fields["scenes"] = _int_list(args.scenes)
     if args.templates is not None:
@@ -82,6 +84,9 @@ def cmd_generate(args: argparse.Namespace) -> int:
             print(f"  split {name}: train {s['train']}, validation {s['validation']}, test {s['test']}")
         print(f"  check it: craft-dsl verify --dataset {args.out}/dataset.json "
               f"--annotations {args.out}/annotations.json")
+        hf = "JSONL and Parquet" if report.get("hf_parquet") else "JSONL (pip install 'craft-dsl[hf]' for Parquet)"
+        print(f"  Hugging Face: {hf} in {args.out}/hf, card {args.out}/README.md; "
+              f"charts: craft-dsl stats {args.out}; browse: craft-dsl view {args.out}")
     return 0
 
 
@@ -98,7 +103,13 @@ def add_commands(sub: Any) -> None:
                      help="perturbed re-simulations per video for the robustness filter (default 3; 0 = none)")
     gen.add_argument("--amount", type=float, default=0.02, help="perturbation noise amount (default 0.02)")
     gen.add_argument("--steps", type=int, default=600, help="simulation steps per video (default 600 = 10 s)")
-    gen.add_argument("--videos", action="store_true", help="also render an MP4 per video (slower)")
+    gen.add_argument("--videos", action="store_true",
+                     help="also render each video with its first and last frames as PNG (slower)")
+    gen.add_argument("--video-format", default="mpg", choices=("mpg", "mp4"),
+                     help="mpg: MPEG-1 as the published CRAFT dataset (default); mp4: H.264 for modern loaders")
+    gen.add_argument("--downsampled", metavar="FPS",
+                     help="with --videos, also write H.264 videos at these frame rates, e.g. 5,10 "
+                          "(downsampled/<fps>-fps/, as the published models read them)")
     gen.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"), help="physics engine")
     gen.add_argument("--templates", help="comma-separated template ids (default: all 67)")
     gen.add_argument("--no-balance", action="store_true",

@@ -5,13 +5,14 @@ Stages are pure functions over plain records, so each can be tested alone; :func
 1. :func:`work_list` — instance ids in scene blocks;
 2. :func:`run_instance` (per video, top-level so a process pool can pickle it) — simulate, generate questions
    (part A, :mod:`craft_dsl.dataset.questions`), perturbation filter, write the annotation
-   ``intermediates/sid_<s>/<id6>.json``, the optional video ``videos/sid_<s>/<id6>.mp4`` and, last, the question
-   file ``questions/qa_<id6>.json`` (its presence marks the instance complete: resume skips it);
+   ``intermediates/sid_<s>/<id6>.json``, the optional media of the published layout (``videos/sid_<s>/<id6>.mpg``,
+   ``first_frames/``, ``last_frames/``, :mod:`craft_dsl.dataset.layout`) and, last, the question file
+   ``questions/qa_<id6>.json`` (its presence marks the instance complete: resume skips it);
 3. :func:`post_process` (§6.5), :func:`balance` (§6.6, seeded and global), :func:`hard_split` /
    :func:`random_split` (§6.7);
 4. writers: ``dataset.json`` (§6.8), ``dataset_minimal.json`` (§6.11), split files, ``annotations.json`` (§6.9,
-   streamed), ``videos_with_no_questions.json``, ``imbalanced_dataset.json``, ``balanced_dataset.json`` and
-   ``generation_report.json``.
+   streamed), ``videos_with_no_questions.json``, ``imbalanced_dataset.json``, ``balanced_dataset.json``,
+   ``generation_report.json`` and the Hugging Face files (:mod:`craft_dsl.dataset.hf`).
 
 Every random draw comes from ``numpy.random.SeedSequence`` children of the configuration seed, keyed by what they
 decide (instance id; balancing group; split), never by processing order: the same configuration gives
@@ -37,6 +38,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 from ..atomic import atomic_path, write_json_atomic
 from ..errors import CraftError
 from ..templates import DROPPED, templates
+from .layout import DEFAULT_VIDEO_FORMAT, VideoFormat, id6, media_complete, park_videos_without_questions, video_relpath
 
 # -- configuration ------------------------------------------------------------------------------------------
 
@@ -52,9 +54,10 @@ SPLIT_PARTS: tuple[str, ...] = ("train", "validation", "test")
 _BALANCE_TAG = 0xBA1A
 _SPLIT_TAG = 0x5B17
 
-#: Configuration fields that decide the content of the per-instance files (``workers`` and ``videos`` do not).
+#: Configuration fields that decide the content of the per-instance files (``workers``, ``videos`` and
+#: ``downsampled`` do not; ``video_format`` does, since every JSON file names the videos).
 CONTENT_FIELDS: tuple[str, ...] = ("size", "seed", "scenes", "steps", "perturbations", "amount", "engine",
-                                   "templates")
+                                   "templates", "video_format")
 
 
 class GenerationConfig(BaseModel):
@@ -69,7 +72,9 @@ class GenerationConfig(BaseModel):
     perturbations: int = Field(3, ge=0, description="perturbed re-simulations per video (0: no filter)")
     amount: float = Field(0.02, ge=0.0, le=0.5, description="perturbation noise amount")
     workers: int = Field(1, ge=1, description="worker processes")
-    videos: bool = Field(False, description="render an MP4 per video")
+    videos: bool = Field(False, description="render each video with its first and last frames")
+    video_format: VideoFormat = Field(DEFAULT_VIDEO_FORMAT, description="mpg (MPEG-1, as published) or mp4 (H.264)")
+    downsampled: tuple[int, ...] = Field((), description="also write H.264 videos at these frame rates (with videos)")
     engine: Literal["pymunk", "box2d"] = "pymunk"
     templates: tuple[str, ...] = Field(tuple(templates()), description="template ids to instantiate")
     balance: bool = Field(True, description="answer balancing (off: keep every question that passed the filters)")
@@ -98,6 +103,14 @@ class GenerationConfig(BaseModel):
             raise ValueError("give at least one template id")
         return tuple(t for t in known if t in set(v))  # canonical order
 
+    @field_validator("downsampled")
+    @classmethod
+    def _check_downsampled(cls, v: tuple[int, ...]) -> tuple[int, ...]:
+        bad = [f for f in v if not 1 <= f <= 60]
+        if bad:
+            raise ValueError(f"downsampled frame rates are 1-60 frames per second, not {bad}")
+        return tuple(sorted(set(v)))
+
     @classmethod
     def make(cls, **kwargs: Any) -> GenerationConfig:
         """Validate, turning a pydantic error into a :class:`CraftError` naming the field."""
@@ -114,10 +127,6 @@ class GenerationConfig(BaseModel):
 
 
 # -- work list and seeds ------------------------------------------------------------------------------------
-
-
-def id6(instance_id: int) -> str:
-    return f"{instance_id:06d}"
 
 
 def work_list(config: GenerationConfig) -> list[tuple[int, int]]:
@@ -146,9 +155,9 @@ def instance_seeds(seed: int, instance_id: int) -> tuple[int, np.random.SeedSequ
     return int(sim_ss.generate_state(1, dtype=np.uint32)[0]), question_ss, perturb_ss
 
 
-def video_path(scene: int, instance_id: int) -> str:
-    """The dataset-relative video path recorded in every file (``./videos/sid_<s>/<id6>.mp4``)."""
-    return f"./videos/sid_{scene}/{id6(instance_id)}.mp4"
+def video_path(scene: int, instance_id: int, video_format: str = DEFAULT_VIDEO_FORMAT) -> str:
+    """The dataset-relative video path recorded in every file (``./videos/sid_<s>/<id6>.mpg``)."""
+    return video_relpath(scene, instance_id, video_format)
 
 
 def annotation_file(out: Path, scene: int, instance_id: int) -> Path:
@@ -157,10 +166,6 @@ def annotation_file(out: Path, scene: int, instance_id: int) -> Path:
 
 def questions_file(out: Path, instance_id: int) -> Path:
     return out / "questions" / f"qa_{id6(instance_id)}.json"
-
-
-def video_file(out: Path, scene: int, instance_id: int) -> Path:
-    return out / "videos" / f"sid_{scene}" / f"{id6(instance_id)}.mp4"
 
 
 # -- per instance -------------------------------------------------------------------------------------------
@@ -180,6 +185,8 @@ class InstanceTask:
     engine: str
     templates: tuple[str, ...]
     videos: bool
+    video_format: str = DEFAULT_VIDEO_FORMAT
+    downsampled: tuple[int, ...] = ()
 
 
 def _part_a() -> ModuleType:
@@ -197,21 +204,24 @@ def _load_json(path: Path) -> Any:
         return None
 
 
-def instance_complete(out: Path, scene: int, instance_id: int, videos: bool) -> bool:
-    """True if the instance's files exist and parse (its question file is written last)."""
+def instance_complete(out: Path, scene: int, instance_id: int, videos: bool,
+                      video_format: str = DEFAULT_VIDEO_FORMAT, downsampled: tuple[int, ...] = ()) -> bool:
+    """True if the instance's files exist and parse (its question file is written last), with its media if
+    ``videos``."""
     qa = _load_json(questions_file(out, instance_id))
     if not isinstance(qa, dict) or not isinstance(qa.get("questions"), list) or "stats" not in qa:
         return False
     ann = _load_json(annotation_file(out, scene, instance_id))
     if not isinstance(ann, dict) or "original_video_output" not in ann:
         return False
-    return not videos or video_file(out, scene, instance_id).is_file()
+    return not videos or media_complete(out, scene, instance_id, video_format, downsampled)
 
 
 def run_instance(task: InstanceTask) -> int:
     """Simulate one video, generate and filter its questions, write its files; returns the instance id.
 
-    Writes (each atomically) the annotation, the video if asked for, then ``questions/qa_<id6>.json`` =
+    Writes (each atomically) the annotation, the media if asked for (video, first and last frames, downsampled
+    videos: :func:`craft_dsl.dataset.layout.write_media`), then ``questions/qa_<id6>.json`` =
     ``{"info", "questions", "stats"}`` (``info``/``questions`` as the original's qa file, §4.9; ``stats`` for the
     generation report). An interrupted instance leaves no question file and is redone on the next run.
     """
@@ -220,7 +230,7 @@ def run_instance(task: InstanceTask) -> int:
 
     part_a = _part_a()
     out = Path(task.out)
-    vpath = video_path(task.scene, task.instance_id)
+    vpath = video_path(task.scene, task.instance_id, task.video_format)
     sim_seed, question_ss, perturb_ss = instance_seeds(task.seed, task.instance_id)
     sim = simulate(task.scene, seed=sim_seed, steps=task.steps, engine=task.engine)
     sim.meta["video_filename"] = vpath
@@ -246,9 +256,9 @@ def run_instance(task: InstanceTask) -> int:
     }
     write_json_atomic(simulation_dict(sim), annotation_file(out, task.scene, task.instance_id), indent=None)
     if task.videos:
-        from ..render import write_video
+        from .layout import write_media
 
-        write_video(sim, video_file(out, task.scene, task.instance_id))
+        write_media(sim, out, task.scene, task.instance_id, task.video_format, task.downsampled)
     info = {"video_filename": vpath, "video_index": task.instance_id}
     write_json_atomic({"info": info, "questions": kept, "stats": stats}, questions_file(out, task.instance_id),
                       indent=None)
@@ -399,7 +409,7 @@ def random_split(records: Sequence[Mapping[str, Any]], seed: int) -> dict[str, l
 
 
 def dataset_videos(
-    records: Sequence[Mapping[str, Any]], scene_of: Mapping[int, int]
+    records: Sequence[Mapping[str, Any]], scene_of: Mapping[int, int], video_format: str = DEFAULT_VIDEO_FORMAT
 ) -> list[dict[str, Any]]:
     """The ``dataset.json`` list (§6.8): one element per video with questions, ascending, raw answers."""
     by_video: dict[int, list[dict[str, Any]]] = defaultdict(list)
@@ -407,7 +417,7 @@ def dataset_videos(
         by_video[int(rec["video_index"])].append(dict(rec))
     out = []
     for vi in sorted(by_video):
-        path = video_path(scene_of[vi], vi)
+        path = video_path(scene_of[vi], vi, video_format)
         qs = sorted(by_video[vi], key=lambda r: int(r["question_index"]))
         out.append({"simulation_id": str(scene_of[vi]), "video_path": path,
                     "questions": {"info": {"video_filename": path, "video_index": vi}, "questions": qs}})
@@ -498,8 +508,8 @@ def generate_dataset(
     work = work_list(config)
     tasks = [
         InstanceTask(str(root), i, s, config.seed, config.steps, config.perturbations, config.amount, config.engine,
-                     config.templates, config.videos)
-        for i, s in work if not instance_complete(root, s, i, config.videos)
+                     config.templates, config.videos, config.video_format, config.downsampled)
+        for i, s in work if not instance_complete(root, s, i, config.videos, config.video_format, config.downsampled)
     ]
     if on_total:
         on_total(len(tasks), len(work))
@@ -543,14 +553,14 @@ def assemble(config: GenerationConfig, root: Path, work: Sequence[tuple[int, int
         per_template[template_id_of(rec)]["final"] += 1
 
     # writers
-    dataset = dataset_videos(balanced, scene_of)
+    dataset = dataset_videos(balanced, scene_of, config.video_format)
     from ..verify import minimal_records
 
     minimal = minimal_records(dataset)
     _write(dataset, root / "dataset.json")
     _write(minimal, root / "dataset_minimal.json")
     _write(minimal, root / "balanced_dataset.json")
-    _write(minimal_records(dataset_videos(processed, scene_of)), root / "imbalanced_dataset.json")
+    _write(minimal_records(dataset_videos(processed, scene_of, config.video_format)), root / "imbalanced_dataset.json")
     hard = hard_split(balanced, scene_of)
     rand = random_split(balanced, config.seed)
     _write(hard, root / "split_info_hard.json")
@@ -560,6 +570,7 @@ def assemble(config: GenerationConfig, root: Path, work: Sequence[tuple[int, int
                               ((id6(v), annotation_file(root, scene_of[v], v)) for v in with_questions))
     no_questions = sorted(set(scene_of) - set(with_questions))
     _write(no_questions, root / "videos_with_no_questions.json", indent=2)
+    park_videos_without_questions(root, scene_of, with_questions, config.video_format)
 
     report: dict[str, Any] = {
         "config": config.content(),
@@ -580,11 +591,14 @@ def assemble(config: GenerationConfig, root: Path, work: Sequence[tuple[int, int
                          for t in templates() if t in per_template},
     }
     _write(report, root / "generation_report.json", indent=2, sort_keys=True)
-    return dict(report, resumed=resumed)
+    from .hf import write_hf
+
+    hf = write_hf(root)
+    return dict(report, resumed=resumed, hf_parquet=hf.parquet)
 
 
 __all__ = [
     "GenerationConfig", "HARD_SPLIT", "InstanceTask", "assemble", "balance", "dataset_videos", "generate_dataset",
-    "hard_split", "instance_complete", "instance_seeds", "post_process", "random_split", "run_instance",
+    "hard_split", "id6", "instance_complete", "instance_seeds", "post_process", "random_split", "run_instance",
     "work_list", "write_annotations",
 ]

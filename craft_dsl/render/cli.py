@@ -30,10 +30,12 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 
 def add_commands(sub: Any) -> None:
-    render = sub.add_parser("render", help="render a simulated scene as a video (.mp4, .gif) or a frame (.png)")
+    render = sub.add_parser("render", help="render a simulated scene as a video (.mp4, .mpg, .gif) or a frame (.png)")
     render.add_argument("--scene", type=int, required=True, help="scene layout 1-20")
     render.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
-    render.add_argument("--out", required=True, help="output file: .mp4 (H.264), .gif, or .png with --frame")
+    render.add_argument("--out", required=True,
+                        help="output file: .mp4 (H.264), .mpg (MPEG-1, as the published CRAFT videos), .gif, "
+                             "or .png with --frame")
     render.add_argument("--frame", type=int, help="write only the frame after this many steps, as PNG")
     render.add_argument("--fps", type=float, default=60, help="frames per second, at most 60 (default 60)")
     render.add_argument("--steps", type=int, default=600, help="simulation steps (default 600 = 10 s)")

@@ -1,4 +1,4 @@
-"""Writing frames to files: MP4 (H.264) and GIF through imageio-ffmpeg, PNG with zlib.
+"""Writing frames to files: MPEG-1 (.mpg), MP4 (H.264) and GIF through imageio-ffmpeg, PNG with zlib.
 
 Every write is atomic: the file is encoded under a temporary name in the target's folder and renamed
 into place only when complete, so an interrupted or failed run leaves no half-written output.
@@ -22,7 +22,13 @@ from ..simulation import Simulation
 from .raster import DEFAULT_SIZE, SIM_FPS, RenderError, frame, frame_count, iter_frames
 
 #: File extensions -> container/codec settings.
-VIDEO_FORMATS = (".mp4", ".gif")
+VIDEO_FORMATS = (".mpg", ".mp4", ".gif")
+#: MPEG-1 settings of the original CRAFT simulator: bit rate, GOP length, at most one B-frame between anchors.
+MPEG1_BITRATE = "4M"
+MPEG1_GOP = 25
+MPEG1_MAX_B_FRAMES = 1
+#: The MPEG sequence end code the original appended after the last frame.
+MPEG_END_CODE = b"\x00\x00\x01\xb7"
 #: H.264 quality (constant rate factor; 18 is visually lossless for these flat images).
 MP4_CRF = 18
 _GIF_FILTER = "split[a][b];[a]palettegen=max_colors=64:stats_mode=full[p];[b][p]paletteuse=dither=none"
@@ -60,7 +66,12 @@ def _video_format(path: Path) -> str:
 
 def write_frames(frames: Iterable[np.ndarray], path: str | os.PathLike[str], fps: float = SIM_FPS,
                  size: int = DEFAULT_SIZE, progress: Callable[[int], None] | None = None) -> Path:
-    """Encode RGB uint8 frames [size, size, 3] to ``path`` (.mp4: H.264 yuv420p; .gif: 64-colour palette)."""
+    """Encode RGB uint8 frames [size, size, 3] to ``path``.
+
+    ``.mpg``: a raw MPEG-1 video elementary stream (no container), 4 Mb/s, GOP 25, at most 1 B-frame, yuv420p,
+    ending with the MPEG end code: the file the original CRAFT simulator wrote (encoded on one thread, so the
+    same frames give the same bytes on any machine). ``.mp4``: H.264 yuv420p.
+    """
     import imageio_ffmpeg
 
     target = Path(path)
@@ -68,6 +79,10 @@ def write_frames(frames: Iterable[np.ndarray], path: str | os.PathLike[str], fps
     if ext == ".mp4":
         options = dict(codec="libx264", pix_fmt_out="yuv420p",
                        output_params=["-crf", str(MP4_CRF), "-movflags", "+faststart"])
+    elif ext == ".mpg":
+        options = dict(codec="mpeg1video", pix_fmt_out="yuv420p", bitrate=MPEG1_BITRATE,
+                       output_params=["-g", str(MPEG1_GOP), "-bf", str(MPEG1_MAX_B_FRAMES), "-threads", "1",
+                                      "-f", "mpeg1video"])
     else:
         options = dict(codec="gif", pix_fmt_out="pal8", output_params=["-filter_complex", _GIF_FILTER])
     with atomic_path(target) as tmp:
@@ -87,6 +102,9 @@ def write_frames(frames: Iterable[np.ndarray], path: str | os.PathLike[str], fps
             writer.close()
         if count == 0:
             raise RenderError(f"{target}: no frames to write (the simulation has no steps at this frame rate)")
+        if ext == ".mpg":
+            with tmp.open("ab") as fh:
+                fh.write(MPEG_END_CODE)
     return target
 
 

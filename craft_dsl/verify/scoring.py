@@ -245,9 +245,9 @@ def score(
         for key, answer, _label in _predictions(predictions)[0]:
             i = get(key)
             if i is None:
-                v, q = key
-                if v < 0x80000000 and q < 0x100000000:  # inlined _UnknownKeys.add: ten million times per 200 MB
-                    packed(v << 32 | q)
+                video, question = key
+                if video < 0x80000000 and question < 0x100000000:  # _UnknownKeys.add inlined: it runs ten million
+                    packed(video << 32 | question)  # times for a 200 MB file
                 else:
                     unknown.add(key)
             elif answered[i]:

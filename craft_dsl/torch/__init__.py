@@ -1,0 +1,22 @@
+"""PyTorch access to CRAFT-format datasets (the optional ``torch`` extra: torch and PyAV).
+
+>>> from torch.utils.data import DataLoader                                        # doctest: +SKIP
+>>> from craft_dsl.torch import CraftVideoQA, collate                              # doctest: +SKIP
+>>> train = CraftVideoQA("my_craft", "train", fps=5, size=128)                     # doctest: +SKIP
+>>> batch = next(iter(DataLoader(train, batch_size=8, collate_fn=collate)))        # doctest: +SKIP
+>>> batch["frames"].shape, batch["answer_index"], batch["program_ids"].shape       # doctest: +SKIP
+
+See ``docs/dataset-users.md``.
+"""
+
+from __future__ import annotations
+
+try:
+    import torch  # noqa: F401
+except ImportError as err:  # pragma: no cover - depends on the environment
+    raise ImportError("craft_dsl.torch needs PyTorch and PyAV: pip install 'craft-dsl[torch]'") from err
+
+from .dataset import FRAME_MODES, PAD, UNK, CraftVideoQA, collate
+from .video import decode_image, decode_video
+
+__all__ = ["FRAME_MODES", "PAD", "UNK", "CraftVideoQA", "collate", "decode_image", "decode_video"]
