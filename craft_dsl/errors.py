@@ -3,11 +3,39 @@
 from __future__ import annotations
 
 import copy
+import re
 from typing import Any
+
+#: The longest message an error carries: one that quotes a 5,000-character token or a whole node is shortened.
+MAX_MESSAGE_LENGTH = 1500
+_QUOTED_LIMIT = 60
+_LONG_QUOTED = re.compile(r"'([^'\n]{%d,})'|\"([^\"\n]{%d,})\"" % (_QUOTED_LIMIT + 20, _QUOTED_LIMIT + 20))
+
+
+def shorten_message(message: str) -> str:
+    """``message`` with every long quoted value cut to its start (and its length), and the whole cut in the
+    middle if it is still longer than :data:`MAX_MESSAGE_LENGTH` (the start says what, the end what is allowed)."""
+    def cut(m: re.Match[str]) -> str:
+        quote = "'" if m.group(1) is not None else '"'
+        text = m.group(1) if m.group(1) is not None else m.group(2)
+        return f"{quote}{text[:_QUOTED_LIMIT]}...{quote} ({len(text):,} characters)"
+
+    if len(message) > _QUOTED_LIMIT + 20:
+        message = _LONG_QUOTED.sub(cut, message)
+    if len(message) > MAX_MESSAGE_LENGTH:
+        keep = MAX_MESSAGE_LENGTH // 2
+        message = f"{message[:keep]} ...({len(message) - 2 * keep:,} characters)... {message[-keep:]}"
+    return message
 
 
 class CraftError(Exception):
-    """Base class of every craft_dsl error."""
+    """Base class of every craft_dsl error. A message quoting a huge input is shortened (see
+    :func:`shorten_message`)."""
+
+    def __init__(self, *args: Any) -> None:
+        if args and isinstance(args[0], str):
+            args = (shorten_message(args[0]), *args[1:])
+        super().__init__(*args)
 
 
 class ProgramError(CraftError):
@@ -33,7 +61,7 @@ class ProgramError(CraftError):
         new = copy.copy(self)
         new.line = new.column = None
         new.location, new.index = location, index
-        new.args = (f"{location}: {self.message}",)
+        new.args = (shorten_message(f"{location}: {self.message}"),)
         return new
 
 

@@ -33,7 +33,7 @@ from pydantic import (
 )
 
 from .errors import CraftError, ExpressionError, SceneFileError
-from .files import read_json
+from .files import describe, read_json
 from .vocabulary import COLORS, SHAPES, SIZES
 from .world import BodySpec, WorldSpec, assign_uids, make_dynamic, make_static
 
@@ -219,15 +219,22 @@ def _is_number(raw: object) -> TypeGuard[int | float]:
     return isinstance(raw, (int, float)) and not isinstance(raw, bool)
 
 
+def _float(raw: int | float) -> float:
+    try:
+        return float(raw)
+    except OverflowError:  # an integer beyond the range of a float
+        raise ValueError(f"{describe(raw)} is out of range; allowed: finite numbers (at most about 1.8e308)") from None
+
+
 def _parse_scalar(raw: object) -> Const | Expr:
     if _is_number(raw):
-        value = float(raw)
+        value = _float(raw)
         if not math.isfinite(value):
             raise ValueError(f"{raw!r} is not a finite number")
         return Const(value)
     if isinstance(raw, str):
         return parse_expression(raw)
-    raise ValueError(f"expected a number or an expression string, got {raw!r}")
+    raise ValueError(f"expected a number or an expression string, got {describe(raw)}")
 
 
 def _constant_value(q: Const | Expr) -> float | None:
@@ -246,7 +253,7 @@ def _parse_quantity(raw: object) -> Quantity:
         if set(raw) == {"uniform"}:
             bounds = raw["uniform"]
             if not isinstance(bounds, list) or len(bounds) != 2:
-                raise ValueError(f'"uniform" needs a list [min, max] of two values, got {bounds!r}')
+                raise ValueError(f'"uniform" needs a list [min, max] of two values, got {describe(bounds)}')
             low, high = _parse_scalar(bounds[0]), _parse_scalar(bounds[1])
             lo, hi = _constant_value(low), _constant_value(high)
             if lo is not None and hi is not None and lo > hi:
@@ -256,10 +263,10 @@ def _parse_quantity(raw: object) -> Quantity:
         if set(raw) == {"choice"}:
             options = raw["choice"]
             if not isinstance(options, list) or not options or not all(_is_number(o) for o in options):
-                raise ValueError(f'"choice" needs a non-empty list of numbers, got {options!r}')
-            return Choice(tuple(float(o) for o in options))
+                raise ValueError(f'"choice" needs a non-empty list of numbers, got {describe(options)}')
+            return Choice(tuple(_float(o) for o in options))
         raise ValueError(f"unknown random draw with keys {sorted(raw)}; expected {_VALUE_FORMS}")
-    raise ValueError(f"expected {_VALUE_FORMS}; got {raw!r}")
+    raise ValueError(f"expected {_VALUE_FORMS}; got {describe(raw)}")
 
 
 def _quantity_to_raw(q: Quantity) -> float | str | dict[str, list[float | str]] | dict[str, list[float]]:

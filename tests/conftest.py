@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import HealthCheck, settings
 
 from craft_dsl import (
     CounterfactualUnavailable,
@@ -158,3 +159,12 @@ def users_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("users") / "craft6"
     generate_dataset(GenerationConfig.make(**USERS_DATASET), out)
     return out
+
+
+# -- hypothesis profiles ----------------------------------------------------------------------------------------
+# "ci" (the default): hypothesis's 100 examples per test, no deadline (the machines are shared). "long": the fuzz
+# tests for about 30 minutes on 2 cores: python -m pytest tests/ -k fuzz --hypothesis-profile=long
+settings.register_profile("ci", deadline=None)
+settings.register_profile("long", deadline=None, max_examples=6000,
+                          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+settings.load_profile("ci")
