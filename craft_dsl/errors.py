@@ -9,7 +9,7 @@ from typing import Any
 #: The longest message an error carries: one that quotes a 5,000-character token or a whole node is shortened.
 MAX_MESSAGE_LENGTH = 1500
 _QUOTED_LIMIT = 60
-_LONG_QUOTED = re.compile(r"'([^'\n]{%d,})'|\"([^\"\n]{%d,})\"" % (_QUOTED_LIMIT + 20, _QUOTED_LIMIT + 20))
+_LONG_QUOTED = re.compile("'([^'\n]{80,})'|\"([^\"\n]{80,})\"")  # quoted values longer than _QUOTED_LIMIT + 20
 
 
 def shorten_message(message: str) -> str:
