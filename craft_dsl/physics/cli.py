@@ -6,6 +6,7 @@ import argparse
 import sys
 from typing import Any
 
+from ..errors import CraftError
 from .live import ENGINES
 
 
@@ -27,11 +28,15 @@ def _scene_list(text: str | None) -> list[int]:
         return list(range(1, 21))
     out: list[int] = []
     for part in text.split(","):
-        if "-" in part:
-            lo, hi = part.split("-", 1)
-            out.extend(range(int(lo), int(hi) + 1))
-        elif part.strip():
-            out.append(int(part))
+        try:
+            if "-" in part:
+                lo, hi = part.split("-", 1)
+                out.extend(range(int(lo), int(hi) + 1))
+            elif part.strip():
+                out.append(int(part))
+        except ValueError:
+            raise CraftError(f"--scenes {text[:60]!r}: {part[:30]!r} is not a scene id or a range; allowed: 'all' or "
+                             "ids and ranges of 1-20, e.g. 1,3,5-8") from None
     return out
 
 
