@@ -175,7 +175,25 @@ def parse_json(text: str | bytes, where: str, what: str = "JSON", *, error: Erro
         found = find_problem(text)
         if found is not None:
             raise found.error(where, error, path)
+    if "\\ud" in text or "\\uD" in text:
+        _check_surrogates(text, where, error, path)
     return value
+
+
+_SURROGATE_ESCAPE = re.compile(r"(?<!\\)((?:\\\\)*)\\u([dD][89a-fA-F][0-9a-fA-F]{2})"
+                               r"(?:\\u([dD][c-fC-F][0-9a-fA-F]{2}))?")
+
+
+def _check_surrogates(text: str, where: str, error: ErrorType, path: str | None) -> None:
+    """Refuse a lone UTF-16 surrogate escape (``"\\ud800"``): the string it makes cannot be written as UTF-8."""
+    for m in _SURROGATE_ESCAPE.finditer(text):
+        high = m.group(2)[1].lower() in "89ab"  # a high surrogate must be followed by a low one; a low one alone
+        if not high or m.group(3) is None:  # (one that follows a high one was matched with it)
+            pos = m.start(2) - 2
+            line = text.count("\n", 0, pos) + 1
+            column = pos - (text.rfind("\n", 0, pos) + 1) + 1
+            raise error(f"{where}: line {line}, column {column}: the escape \\u{m.group(2)} is half of a UTF-16 "
+                        "surrogate pair; allowed: escapes of whole characters", path=path, line=line, column=column)
 
 
 def _too_deep(value: Any, limit: int = MAX_JSON_DEPTH) -> bool:

@@ -140,39 +140,30 @@ def _members(events: Iterator[tuple[str, Any]], name: str, what: str, kinds: tup
         raise error(f"{name}: extra data after the top-level value ({event})", path=name)  # pragma: no cover
 
 
-def _build(event: str, events: Iterator[tuple[str, Any]], name: str, at: _Position, error: ErrorType) -> Any:
-    """One container value, built iteratively with the depth and repeated-key rules."""
-    root: Any = {} if event == "start_map" else []
-    stack: list[Any] = [root]
-    keys: list[str | None] = [None]
-    for event, value in events:
-        top = stack[-1]
-        if event == "map_key":
-            if value in top:
-                raise error(f"{name}: {at.text()}: the key {describe(value)} appears twice in one object; a key may "
+def _build(event: str, events: Iterator[tuple[str, Any]], name: str, at: _Position, error: ErrorType,
+           depth: int = 2) -> Any:
+    """One container value at nesting ``depth`` (the top level is 1), with the depth and repeated-key rules.
+    Recursive, but never deeper than MAX_JSON_DEPTH calls."""
+    if depth > MAX_JSON_DEPTH:
+        raise error(f"{name}: {at.text()}: JSON nested deeper than {MAX_JSON_DEPTH} levels; allowed: at most "
+                    f"{MAX_JSON_DEPTH}", path=name)
+    scalars = _SCALARS
+    if event == "start_map":
+        obj: dict[str, Any] = {}
+        for event, key in events:
+            if event == "end_map":
+                return obj
+            if key in obj:
+                raise error(f"{name}: {at.text()}: the key {describe(key)} appears twice in one object; a key may "
                             "be given only once", path=name)
-            keys[-1] = value
-            continue
-        if event in ("end_map", "end_array"):
-            stack.pop()
-            keys.pop()
-            if not stack:
-                return root
-            continue
-        if event in _SCALARS:
-            item = value
-        else:
-            if len(stack) + 2 > MAX_JSON_DEPTH:  # the top level and this container count too
-                raise error(f"{name}: {at.text()}: JSON nested deeper than {MAX_JSON_DEPTH} levels; allowed: at "
-                            f"most {MAX_JSON_DEPTH}", path=name)
-            item = {} if event == "start_map" else []
-        if isinstance(top, dict):
-            top[keys[-1]] = item
-        else:
-            top.append(item)
-        if event not in _SCALARS:
-            stack.append(item)
-            keys.append(None)
+            event, value = next(events)
+            obj[key] = value if event in scalars else _build(event, events, name, at, error, depth + 1)
+    else:
+        items: list[Any] = []
+        for event, value in events:
+            if event == "end_array":
+                return items
+            items.append(value if event in scalars else _build(event, events, name, at, error, depth + 1))
     raise error(f"{name}: {at.text()}: the file ends in the middle of a value; it may be truncated", path=name)
 
 

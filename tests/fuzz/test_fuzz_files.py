@@ -36,10 +36,12 @@ def _standard(value: Any, depth: int = 1) -> bool:
     """Whether ``value`` (parsed by the json module) keeps the rules of craft_dsl.files."""
     if isinstance(value, float):
         return math.isfinite(value)
+    if isinstance(value, str):  # no lone surrogate (a string that cannot be written as UTF-8)
+        return not any("\ud800" <= c <= "\udfff" for c in value)
     if isinstance(value, (list, dict)):
         if depth > MAX_JSON_DEPTH:
             return False
-        items = value.values() if isinstance(value, dict) else value
+        items = [*value.keys(), *value.values()] if isinstance(value, dict) else value
         return all(_standard(v, depth + 1) for v in items)
     return True
 
