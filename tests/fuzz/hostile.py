@@ -201,7 +201,9 @@ for _spec in MODULES:
 _LEAVES = {DslType.OBJECT_SET: "SceneAtStart()", DslType.EVENT_SET: "Events()", DslType.INTEGER: "StartSceneStep()",
            DslType.OBJECT: 'FilterShape(SceneAtStart(), "cube")', DslType.EVENT: "FilterFirst(Events())",
            DslType.BOOL: "Exist(Events())", DslType.COLOR: '"red"', DslType.SHAPE: '"cube"', DslType.SIZE: '"small"',
-           DslType.OBJECT_SET_LIST: "GetCounterfactEventsList(SceneAtStart())"}
+           DslType.EVENT_SET_LIST: "GetCounterfactEventsList(SceneAtStart())",
+           DslType.OBJECT_SET_LIST: "FilterObjectsFromEventsList(GetCounterfactEventsList(SceneAtStart()))",
+           DslType.BOOL_LIST: "ExistList(GetCounterfactEventsList(SceneAtStart()))"}
 
 
 @st.composite
