@@ -145,7 +145,15 @@ def _no_constants(name: str) -> Any:
     raise _NonStandard(name)
 
 
-_DECODER = json.JSONDecoder(object_pairs_hook=_no_duplicates, parse_constant=_no_constants)
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if value in (math.inf, -math.inf):  # 1e999: beyond the range of a float
+        raise _NonStandard(text)
+    return value
+
+
+_DECODER = json.JSONDecoder(object_pairs_hook=_no_duplicates, parse_constant=_no_constants,
+                            parse_float=_finite_float)
 
 
 def read_json(path: PathLike, what: str, *, error: ErrorType = InputFileError,
@@ -301,6 +309,9 @@ def find_problem(text: str, max_depth: int = MAX_JSON_DEPTH) -> JsonProblem | No
             digits = len(tok.lstrip("-").split(".")[0].split("e")[0].split("E")[0])
             if digits > MAX_INTEGER_DIGITS:
                 return problem(f"a number with {digits} digits; allowed: at most {MAX_INTEGER_DIGITS} digits", pos)
+            if any(c in tok for c in ".eE") and float(tok) in (math.inf, -math.inf):
+                return problem(f"the number {describe(tok)[1:-1]} is out of range; allowed: finite numbers (at most "
+                               "about 1.8e308)", pos)
     return None
 
 
