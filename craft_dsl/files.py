@@ -243,11 +243,21 @@ _TOKEN = re.compile(
 )
 
 
+_PLAIN_KEY = re.compile(r"[A-Za-z0-9_\-]{1,60}")
+
+
+def key_text(key: Any) -> str:
+    """A key of a field path as written in messages: plain keys as they are, any other (spaces, newlines, a
+    5,000-character key) quoted and shortened, so that a path stays one short line."""
+    text = str(key) if isinstance(key, (str, int)) and not isinstance(key, bool) else describe(key, 30)
+    return text if _PLAIN_KEY.fullmatch(text) else describe(str(key), 30)
+
+
 def _field_path(stack: list[list[Any]], shown: int = 4) -> str:
     parts: list[str] = []
     for frame in stack:
         if frame[0] == "{" and frame[2] is not None:
-            parts.append(f".{frame[2]}" if parts else str(frame[2]))
+            parts.append(f".{key_text(frame[2])}" if parts else key_text(frame[2]))
         elif frame[0] == "[":
             parts.append(f"[{frame[1]}]")
     if len(parts) > 2 * shown:

@@ -21,7 +21,7 @@ from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError
 
 from .atomic import write_json_atomic
 from .errors import CounterfactualUnavailable, SimulationFileError
-from .files import INT64_MAX, INT64_MIN, describe, read_json
+from .files import INT64_MAX, INT64_MIN, describe, key_text, read_json
 from .simulation import Event, ObjectState, SimObject, Simulation
 from .vocabulary import (
     COLORS,
@@ -107,7 +107,7 @@ class VariationsFile(_Loose):
 
 def _validation_error(err: ValidationError, where: str, path: str | None) -> SimulationFileError:
     first = err.errors()[0]
-    loc = ".".join(str(p) for p in first["loc"])
+    loc = ".".join(key_text(p) for p in first["loc"])
     found = f", found {describe(first['input'])}" if "input" in first and first["type"] != "missing" else ""
     msg = first["msg"]
     if first["type"] in ("greater_than_equal", "less_than_equal"):

@@ -33,7 +33,7 @@ from pydantic import (
 )
 
 from .errors import CraftError, ExpressionError, SceneFileError
-from .files import describe, read_json
+from .files import describe, key_text, read_json
 from .vocabulary import COLORS, SHAPES, SIZES
 from .world import BodySpec, WorldSpec, assign_uids, make_dynamic, make_static
 
@@ -437,7 +437,7 @@ _SECTION_MODELS: dict[str, type[BaseModel]] = {"basket": BasketSpec, "static": S
 def _loc_text(loc: Sequence[int | str]) -> str:
     out = ""
     for part in loc:
-        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+        out += f"[{part}]" if isinstance(part, int) else (f".{key_text(part)}" if out else key_text(part))
     return out or "(top level)"
 
 

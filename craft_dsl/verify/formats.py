@@ -18,7 +18,7 @@ from typing import Annotated, Any, Union
 from pydantic import BaseModel, ConfigDict, Field, StrictInt, ValidationError, field_validator
 
 from ..errors import DatasetFileError, PredictionsFileError
-from ..files import describe, read_json
+from ..files import describe, key_text, read_json
 from ..jsonstream import iter_lines, iter_members
 from ..templates import templates
 from .answers import MAX_ANSWER_DIGITS, answer_problem
@@ -38,7 +38,7 @@ def _read_json(path: PathLike, what: str) -> Any:
 def _validation_message(err: ValidationError) -> str:
     parts = []
     for e in err.errors()[:3]:
-        loc = ".".join(str(x) for x in e["loc"])
+        loc = ".".join(key_text(x) for x in e["loc"])
         msg = e["msg"].removeprefix("Value error, ")
         if e["type"] in ("greater_than_equal", "less_than_equal"):
             msg = f"must be an integer from 0 to {MAX_INDEX:,}, found {describe(e.get('input'))}"
