@@ -165,6 +165,6 @@ def users_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
 # "ci" (the default): hypothesis's 100 examples per test, no deadline (the machines are shared). "long": the fuzz
 # tests for about 30 minutes on 2 cores: python -m pytest tests/ -k fuzz --hypothesis-profile=long
 settings.register_profile("ci", deadline=None)
-settings.register_profile("long", deadline=None, max_examples=6000,
+settings.register_profile("long", deadline=None, max_examples=10_000,
                           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 settings.load_profile("ci")
