@@ -475,3 +475,20 @@ def test_installed_script_refuses_a_directory() -> None:
 def test_error_classes_are_craft_errors() -> None:
     for cls in (InputFileError, SimulationFileError, SceneFileError, DatasetFileError, PredictionsFileError):
         assert issubclass(cls, CraftError)
+
+
+def test_messages_quoting_huge_inputs_stay_short(tmp_path: Path) -> None:
+    name = "X" * 5000
+    with pytest.raises(CraftError) as info:
+        parse(f"Count({name}())")
+    message = str(info.value)
+    assert message.startswith("line 1, column 7: unknown module 'XXXX") and "(5,000 characters)" in message
+    assert len(message) < 400
+    with pytest.raises(CraftError) as info:
+        Program.from_nodes([{"type": "count", "inputs": [10**5000]}])  # an integer Python cannot print
+    assert str(info.value).startswith("node 0: count: input an integer of about 5,001 digits does not name an earlier")
+    path = tmp_path / "x.json"
+    path.write_text(json.dumps([{"a\nb": [1, {"c": float("nan")}]}]))
+    with pytest.raises(InputFileError) as info2:
+        read_json(path, "test file")
+    assert "\n" not in str(info2.value) and "(field [0].'a\\nb'[1].c)" in str(info2.value)
