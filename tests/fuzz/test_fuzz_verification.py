@@ -71,8 +71,9 @@ def prediction_files(draw: st.DrawFn) -> tuple[str, str]:
         records = []
         for k, a in entries:
             v, _, q = k.partition("_")
-            record: dict[str, Any] = {"video_index": int(v) if v.isdigit() and len(v) < 20 else v,
-                                      "question_index": int(q) if q.isdigit() and len(q) < 20 else q, "answer": a}
+            record: dict[str, Any] = {"video_index": int(v) if v.isascii() and v.isdigit() and len(v) < 20 else v,
+                                      "question_index": int(q) if q.isascii() and q.isdigit() and len(q) < 20 else q,
+                                      "answer": a}
             if draw(st.integers(0, 5)) == 0:
                 record = draw(mutated(record, max_changes=1))
             try:
