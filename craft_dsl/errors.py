@@ -75,6 +75,16 @@ class TokenError(ProgramError):
     """A program token sequence is malformed (unknown token, too few or too many tokens)."""
 
 
+class MissingExtraError(CraftError, ModuleNotFoundError):
+    """A feature needs an optional extra that is not installed; the message names the ``pip install`` to run."""
+
+    def __init__(self, feature: str, extra: str, missing: str | None = None) -> None:
+        super().__init__(
+            f"{feature} needs {missing or extra}, which is not installed: pip install 'craft-dsl[{extra}]'")
+        self.name = missing
+        self.extra = extra
+
+
 class SimulationFileError(CraftError):
     """A recorded simulation file is malformed; the message names the defect."""
 
