@@ -115,12 +115,20 @@ def cmd_modules(args: argparse.Namespace) -> int:
     return 0
 
 
+class _CommandParser(argparse.ArgumentParser):
+    """Every command's parser shows its defaults in --help."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        super().__init__(*args, **kwargs)
+
+
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
     parser = argparse.ArgumentParser(prog="craft-dsl", description="Typed DSL for CRAFT causal video QA.")
     parser.add_argument("--version", action="version", version=f"craft-dsl {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_CommandParser)
 
     run = sub.add_parser("run", help="run a program over a recorded simulation")
     run.add_argument("program", nargs="?", help="program text, or @file")
@@ -151,7 +159,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     for name in ("craft_dsl.demo", "craft_dsl.physics.cli", "craft_dsl.render.cli", "craft_dsl.verify_cli",
                  "craft_dsl.dataset.cli", "craft_dsl.oracle.cli", "craft_dsl.ask_cli", "craft_dsl.dataset.hf_cli",
-                 "craft_dsl.dataset.stats_cli", "craft_dsl.viewer.cli"):
+                 "craft_dsl.dataset.stats_cli", "craft_dsl.viewer.cli", "craft_dsl.perception.cli"):
         try:
             module = importlib.import_module(name)
         except ImportError as err:

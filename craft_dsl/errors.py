@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import re
+from collections.abc import Sequence
 from typing import Any
 
 #: The longest message an error carries: one that quotes a 5,000-character token or a whole node is shortened.
@@ -102,6 +103,16 @@ class TokenError(ProgramError):
     """A program token sequence is malformed (unknown token, too few or too many tokens)."""
 
 
+class MissingExtraError(CraftError, ModuleNotFoundError):
+    """A feature needs an optional extra that is not installed; the message names the ``pip install`` to run."""
+
+    def __init__(self, feature: str, extra: str, missing: str | None = None) -> None:
+        super().__init__(
+            f"{feature} needs {missing or extra}, which is not installed: pip install 'craft-dsl[{extra}]'")
+        self.name = missing
+        self.extra = extra
+
+
 class InputFileError(CraftError):
     """An input file cannot be read as asked, or its content is malformed.
 
@@ -179,3 +190,14 @@ class QuestionParseError(CraftError):
         self.word_index = word_index
         self.found = found
         self.expected = expected
+
+
+class PerceptionError(CraftError):
+    """A perceived scene is malformed or cannot be executed; the message names the object, frame and field.
+
+    ``problems`` lists every defect found (each with ``object``, ``frame``, ``field`` and ``message``).
+    """
+
+    def __init__(self, message: str, problems: Sequence[Any] = ()) -> None:
+        super().__init__(message)
+        self.problems: list[Any] = list(problems)

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from .errors import CraftError
+from .progress import show_progress
 
 EXIT_MISMATCH = 1
 EXIT_BAD_INPUT = 2
@@ -29,7 +30,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
     annotations = open_annotations(args.annotations)
     progress = None
     bar: Any = None
-    if args.progress:
+    if show_progress(args):
         from tqdm import tqdm
 
         bar = tqdm(total=len(questions), unit="q", file=sys.stderr)
@@ -105,7 +106,8 @@ def add_commands(subparsers: Any) -> None:
     ver.add_argument("--json", action="store_true", help="print the report as JSON")
     ver.add_argument("--max-mismatches", type=int, default=None, metavar="N",
                      help="list at most N mismatches and N errors (default: 20 in text, all in JSON)")
-    ver.add_argument("--progress", action="store_true", help="show a progress bar on stderr")
+    ver.add_argument("--progress", action="store_true", help="a progress bar even when stderr is no terminal")
+    ver.add_argument("--quiet", action="store_true", help="no progress bar")
     ver.set_defaults(func=cmd_verify)
 
     sc = subparsers.add_parser("score", help="score predictions per paper category (C, CF, D, sub-categories)")

@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 
 from craft_dsl import INVALID, NodeListError, Program, Simulation, TokenError, TypeCheckError, parse
 from craft_dsl.parser import check_text, fast_check
+from craft_dsl.strategies import programs
 from craft_dsl.templates import DROPPED, templates
 from craft_dsl.tokens import _fast_read, check_tokens, program_vocabulary
 from tests.conftest import E1_PATH
@@ -248,3 +249,23 @@ def test_deep_programs_check_print_and_run(e1: Simulation) -> None:
 
 def test_e1_path_exists() -> None:
     assert E1_PATH.exists() and DROPPED
+
+
+# -- laws over every well-typed program (the public strategies) ---------------------------------------------------
+
+
+@settings(max_examples=300, deadline=None)
+@given(programs(), st.sampled_from(STYLES))
+def test_every_well_typed_program_round_trips_through_every_token_form(
+        p: Program, style: tuple[str, str, bool]) -> None:
+    order, names, fused = style
+    try:
+        tokens = p.to_tokens(order, names=names, fused=fused)  # type: ignore[arg-type]
+    except TokenError:  # a module without an original name cannot be written with original names
+        assert names == "original"
+        return
+    back = Program.from_tokens(tokens, order)  # type: ignore[arg-type]
+    assert back.key == p.key
+    assert back.to_tokens(order, names=names, fused=fused) == tokens  # type: ignore[arg-type]
+    assert Program.from_tokens(" ".join(tokens), order).key == p.key  # type: ignore[arg-type]
+    assert fast_check(str(back)) is None or fast_check(str(back)).nodes == p.key  # type: ignore[union-attr]

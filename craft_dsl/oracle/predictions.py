@@ -67,6 +67,11 @@ class Prediction:
 
 
 def _distribution(raw: Any, where: str) -> dict[str, float]:
+    if isinstance(raw, Mapping) and isinstance(raw.get("answers"), list):  # AnswerDistribution.to_json()
+        entries = raw["answers"]
+        if not all(isinstance(e, Mapping) and "answer" in e and "p" in e for e in entries):
+            raise PredictionsFileError(f"{where}: every entry of 'answers' needs 'answer' and 'p'")
+        raw = [[e["answer"], e["p"]] for e in entries]
     if isinstance(raw, list) and all(isinstance(p, list) and len(p) == 2 for p in raw):
         raw = {str(a): p for a, p in raw}
     if not isinstance(raw, Mapping) or not raw:

@@ -60,7 +60,7 @@ def cmd_engines_compare(args: argparse.Namespace) -> int:
         print(f"error: --engines takes two of {', '.join(ENGINES)}, e.g. pymunk,box2d", file=sys.stderr)
         return 2
     cmp = compare_engines(_scene_list(args.scenes), range(args.seeds), engines=(engines[0], engines[1]),
-                          steps=args.steps, jobs=args.jobs, perturb=args.perturb,
+                          steps=args.steps, jobs=args.workers, perturb=args.perturb,
                           progress=None if args.quiet else stderr_progress)
     print(format_comparison(cmp, markdown=args.markdown))
     print(f"done in {cmp.seconds:.1f} s", file=sys.stderr)
@@ -100,7 +100,8 @@ def add_commands(subparsers: Any) -> None:
     comp.add_argument("--steps", type=int, default=600)
     comp.add_argument("--engines", default="pymunk,box2d",
                       help="two engines: questions are instantiated on the first and re-run on the second")
-    comp.add_argument("--jobs", type=int, default=1, help="worker processes (results do not depend on it)")
+    comp.add_argument("--workers", "--jobs", dest="workers", type=int, default=1,
+                      help="worker processes (results do not depend on it; --jobs is the old name)")
     comp.add_argument("--perturb", type=float, default=0.0, metavar="AMOUNT",
                       help="start the second run from the original's perturbation (e.g. 0.02; perturbation seed ="
                            " scene seed): with the same engine twice, a chaos baseline")

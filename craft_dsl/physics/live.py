@@ -32,7 +32,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from ..errors import CounterfactualUnavailable
+from ..errors import CounterfactualUnavailable, MissingExtraError
 from ..simulation import ObjectState, SimObject, Simulation, Trajectory
 from ..world import DEFAULT_STEPS, WorldSpec
 from .engine import ContactLog, Interval, PhysicsEngine, RawRun, ReplayPlan, splice
@@ -62,9 +62,7 @@ def get_engine(engine: str | PhysicsEngine) -> PhysicsEngine:
         except ModuleNotFoundError as exc:  # the optional extra is missing
             if exc.name != "Box2D":
                 raise
-            raise ModuleNotFoundError(
-                "the box2d engine needs pybox2d: pip install 'craft-dsl[box2d]'"
-            ) from exc
+            raise MissingExtraError("the box2d engine", "box2d", "pybox2d") from exc
         return Box2DEngine()
     raise ValueError(f"unknown physics engine {engine!r}; available: {', '.join(ENGINES)}")
 
