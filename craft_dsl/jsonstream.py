@@ -20,8 +20,6 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, Any
 
-import ijson
-
 from .errors import InputFileError
 from .files import MAX_JSON_DEPTH, ErrorType, PathLike, decode_text, describe, parse_json
 
@@ -94,6 +92,8 @@ def iter_members(path: PathLike, what: str, *, error: ErrorType = InputFileError
     For an object ``key`` is a string (a repeated key is yielded again), for an array the 0-based index (an int).
     A top-level value of another kind than ``kinds`` ("object", "array") is refused.
     """
+    import ijson  # loaded on first use, as the package's other heavy libraries
+
     name = str(path)
     at = _Position()
     fh = _open(path, what, error)
