@@ -303,6 +303,9 @@ def check_tree(tree: Tree) -> CheckedProgram:
         env[b.name] = (nid, builder.nodes[nid].type)
         bindings.append(Binding(b.name, expr, b.pos))
     root, body = _check_expr(builder, tree.body, env, sources)
+    if builder.nodes[root].module is None:
+        raise ProgramError("a program must call a module; a lone value is not a program (in every form)",
+                           **where(getattr(tree.body, "pos", None)))
     return builder.finish(root, sources, Tree(tuple(bindings), body), {k: t for k, (_, t) in env.items()})
 
 

@@ -221,7 +221,7 @@ def _expr(draw: st.DrawFn, typ: DslType, depth: int, top: bool = False) -> str:
     if typ in (DslType.COLOR, DslType.SHAPE, DslType.SIZE) and not top and draw(st.integers(0, 3)) == 0:
         q = draw(st.sampled_from(['"', "\u201c"]))
         return f"{q}{draw(st.sampled_from(VOCABULARY[typ]))}{q}"
-    if typ == DslType.INTEGER and draw(st.integers(0, 4)) == 0:
+    if typ == DslType.INTEGER and not top and draw(st.integers(0, 4)) == 0:  # a lone value is not a program
         return str(draw(st.integers(-3, 12)))
     producers = _PRODUCERS.get(typ, [])
     if depth <= 0 or not producers:
