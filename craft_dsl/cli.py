@@ -157,7 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
     mods.add_argument("--markdown", action="store_true", help="print a Markdown table")
     mods.set_defaults(func=cmd_modules)
 
-    for name in ("craft_dsl.demo", "craft_dsl.physics.cli", "craft_dsl.render.cli", "craft_dsl.verify_cli",
+    for name in ("craft_dsl.demo", "craft_dsl.physics.cli", "craft_dsl.render.cli", "craft_dsl.verify.cli",
                  "craft_dsl.dataset.cli", "craft_dsl.oracle.cli", "craft_dsl.ask_cli", "craft_dsl.dataset.hf_cli",
                  "craft_dsl.dataset.stats_cli", "craft_dsl.viewer.cli", "craft_dsl.perception.cli"):
         try:

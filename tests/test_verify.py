@@ -1,4 +1,4 @@
-"""Dataset verification and prediction scoring (craft_dsl.verify, craft_dsl.verify_cli)."""
+"""Dataset verification and prediction scoring (craft_dsl.verify, craft_dsl.verify.cli)."""
 
 from __future__ import annotations
 
@@ -36,7 +36,7 @@ from craft_dsl.verify import (
     score,
     verify_dataset,
 )
-from craft_dsl.verify_cli import run as run_cli
+from craft_dsl.verify.cli import run as run_cli
 from tests.conftest import E1_PATH
 
 # -- fixtures ----------------------------------------------------------------------------------------------------

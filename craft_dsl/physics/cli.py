@@ -41,7 +41,7 @@ def _scene_list(text: str | None) -> list[int]:
 
 
 def cmd_scene_stats(args: argparse.Namespace) -> int:
-    from .stats import format_table, scene_stats
+    from ..analysis.scene_stats import format_table, scene_stats
 
     rows = []
     for scene in _scene_list(args.scenes):
@@ -53,7 +53,7 @@ def cmd_scene_stats(args: argparse.Namespace) -> int:
 
 
 def cmd_engines_compare(args: argparse.Namespace) -> int:
-    from .compare import compare_engines, format_comparison, stderr_progress
+    from ..analysis.engines import compare_engines, format_comparison, stderr_progress
 
     engines = tuple(args.engines.split(","))
     if len(engines) != 2 or any(e not in ENGINES for e in engines):

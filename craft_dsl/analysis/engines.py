@@ -4,7 +4,7 @@ For every scene and seed, the same WorldSpec is simulated with two engines (by d
 Every template is instantiated on the first engine's simulation (:func:`craft_dsl.templates.instantiate`,
 first valid binding) and the *same* program (same parameters) is run on the second engine's simulation;
 the two answers agree if they are equal (INVALID counts as an answer). Per scene, the outcome statistics
-of :mod:`craft_dsl.physics.stats` are computed for both engines side by side.
+of :mod:`craft_dsl.analysis.scene_stats` are computed for both engines side by side.
 
 >>> cmp = compare_engines([3], range(2))          # doctest: +SKIP
 >>> print(format_comparison(cmp, markdown=True))  # doctest: +SKIP
@@ -21,7 +21,7 @@ from typing import Any, cast
 
 from ..templates import instantiate, templates
 from ..types import INVALID
-from .stats import SceneStats, scene_stats, text_table
+from .scene_stats import SceneStats, scene_stats, text_table
 
 #: Template families, in the templates file's order.
 CATEGORIES = ("descriptive", "counterfactual", "cause", "enable", "prevent")
@@ -116,7 +116,7 @@ def compare_task(scene: int, seed: int, engines: tuple[str, str] = ("pymunk", "b
 
     ``perturb > 0``: the second run starts from the original's perturbation of the world (amount
     ``perturb``, perturbation seed = ``seed``) -- a chaos baseline when both engines are the same."""
-    from .live import get_engine, simulate
+    from ..physics.live import get_engine, simulate
 
     start = time.perf_counter()
     eng_a, eng_b = get_engine(engines[0]), get_engine(engines[1])

@@ -6,9 +6,9 @@ import time
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+from ..physics.engine import PhysicsEngine
+from ..physics.live import get_engine, simulate
 from ..vocabulary import COLLISION, ENTER_BASKET
-from .engine import PhysicsEngine
-from .live import get_engine, simulate
 
 
 @dataclass(frozen=True)

@@ -14,15 +14,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from .errors import CraftError
-from .progress import show_progress
+from ..errors import CraftError
+from ..progress import show_progress
 
 EXIT_MISMATCH = 1
 EXIT_BAD_INPUT = 2
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
-    from .verify import open_annotations, read_dataset, verify_dataset
+    from . import open_annotations, read_dataset, verify_dataset
 
     if args.max_mismatches is not None and args.max_mismatches < 0:
         raise CraftError(f"--max-mismatches must be 0 or more, not {args.max_mismatches}")
@@ -48,7 +48,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 
 def cmd_score(args: argparse.Namespace) -> int:
-    from .verify import read_questions, read_split, score
+    from . import read_questions, read_split, score
 
     if args.part and not args.split:
         raise CraftError("--part needs --split FILE")
@@ -58,7 +58,7 @@ def cmd_score(args: argparse.Namespace) -> int:
     if args.json:
         out = report.to_json()
         if args.compare_paper:
-            from .verify import PAPER_HUMANS, PAPER_RESULTS
+            from . import PAPER_HUMANS, PAPER_RESULTS
 
             cols = ("C", "CF", "D", "All")
             out["paper"] = {
@@ -76,9 +76,9 @@ def cmd_score(args: argparse.Namespace) -> int:
 
 
 def cmd_verify_fixture(args: argparse.Namespace) -> int:
-    from .physics import simulate
-    from .recorded import write_json_atomic
-    from .verify import build_dataset, minimal_records
+    from ..physics import simulate
+    from ..recorded import write_json_atomic
+    from . import build_dataset, minimal_records
 
     sims = []
     for spec in args.sim or ["1:0", "3:0"]:
@@ -135,17 +135,7 @@ def add_commands(subparsers: Any) -> None:
 
 
 def run(argv: Sequence[str]) -> int:
-    """Run one of these commands without the main CLI (errors → message on stderr, exit code 2)."""
-    parser = argparse.ArgumentParser(prog="craft-dsl")
-    add_commands(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(list(argv))
-    try:
-        return int(args.func(args))
-    except CraftError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return EXIT_BAD_INPUT
-    except (OSError, RecursionError, MemoryError) as err:  # as the main CLI: a message, never a traceback
-        from .cli import _describe_failure
+    """Run one of these commands as ``craft-dsl`` does (errors: a message on stderr, exit code 2)."""
+    from ..cli import main
 
-        print(f"error: {_describe_failure(err)}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+    return main(list(argv))
