@@ -14,6 +14,7 @@ from .errors import CraftError
 from .files import read_json, read_text
 from .program import Program, format_value, to_json
 from .registry import MODULES
+from .vocabulary import DEFAULT_ENGINE, ENGINES
 
 EXIT_USAGE = 2
 #: Program files and node lists larger than this are refused (a 5,000-binding program is about 200 KB).
@@ -135,7 +136,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--sim", help="recorded simulation JSON file (CRAFT format)")
     run.add_argument("--scene", type=int, help="or simulate this scene layout (1-20) live")
     run.add_argument("--seed", type=int, default=0, help="seed of the live simulation (default 0)")
-    run.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"),
+    run.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES,
                      help="physics engine of the live simulation (default pymunk)")
     run.add_argument("--nodes", help="read the program as a CLEVR/CRAFT node list from this JSON file")
     run.add_argument("--param", action="append", default=[], metavar="<Z>=small",

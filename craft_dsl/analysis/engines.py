@@ -21,6 +21,8 @@ from typing import Any, cast
 
 from ..templates import instantiate, templates
 from ..types import INVALID
+from ..vocabulary import ENGINES
+from ..world import DEFAULT_STEPS
 from .scene_stats import SceneStats, scene_stats, text_table
 
 #: Template families, in the templates file's order.
@@ -110,8 +112,8 @@ class Comparison:
         return self.categories()[-1].rate
 
 
-def compare_task(scene: int, seed: int, engines: tuple[str, str] = ("pymunk", "box2d"),
-                 steps: int = 600, perturb: float = 0.0) -> TaskResult:
+def compare_task(scene: int, seed: int, engines: tuple[str, str] = (ENGINES[0], ENGINES[1]),
+                 steps: int = DEFAULT_STEPS, perturb: float = 0.0) -> TaskResult:
     """Simulate one (scene, seed) with both engines and compare every template's answer.
 
     ``perturb > 0``: the second run starts from the original's perturbation of the world (amount
@@ -162,8 +164,8 @@ def merge_stats(rows: Sequence[SceneStats]) -> SceneStats:
 def compare_engines(
     scenes: Iterable[int],
     seeds: Iterable[int],
-    engines: tuple[str, str] = ("pymunk", "box2d"),
-    steps: int = 600,
+    engines: tuple[str, str] = (ENGINES[0], ENGINES[1]),
+    steps: int = DEFAULT_STEPS,
     jobs: int = 1,
     progress: Callable[[TaskResult, int, int], None] | None = None,
     perturb: float = 0.0,

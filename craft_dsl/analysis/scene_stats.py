@@ -9,6 +9,7 @@ from dataclasses import dataclass
 from ..physics.engine import PhysicsEngine
 from ..physics.live import get_engine, simulate
 from ..vocabulary import COLLISION, ENTER_BASKET
+from ..world import DEFAULT_STEPS
 
 
 @dataclass(frozen=True)
@@ -30,7 +31,7 @@ class SceneStats:
 
 
 def scene_stats(scene: int, seeds: Iterable[int], engine: str | PhysicsEngine = "pymunk",
-                steps: int = 600) -> SceneStats:
+                steps: int = DEFAULT_STEPS) -> SceneStats:
     eng = get_engine(engine)
     runs = dyn = basket = ground = events = 0
     start = time.perf_counter()

@@ -7,6 +7,7 @@ import sys
 from typing import Any
 
 from ..errors import CraftError
+from ..world import DEFAULT_STEPS
 from .live import ENGINES
 
 
@@ -72,7 +73,7 @@ def add_commands(subparsers: Any) -> None:
     sim = subparsers.add_parser("simulate", help="simulate a scene with live physics and save it as JSON")
     sim.add_argument("--scene", required=True, help="scene id 1-20 or a layout file")
     sim.add_argument("--seed", type=int, default=0)
-    sim.add_argument("--steps", type=int, default=600)
+    sim.add_argument("--steps", type=int, default=DEFAULT_STEPS)
     sim.add_argument("--engine", default="pymunk", choices=ENGINES, help="physics engine")
     sim.add_argument("--out", required=True, help="output JSON (original format)")
     sim.add_argument("--no-variations", action="store_true", help="do not run the counterfactuals")
@@ -87,7 +88,7 @@ def add_commands(subparsers: Any) -> None:
              else subparsers.add_parser("scene-stats", help="per-scene statistics over seeds"))
     stats.add_argument("--seeds", type=int, default=200, help="seeds 0..N-1 per scene")
     stats.add_argument("--scenes", help="e.g. 1,2,5-7 (default: all 20)")
-    stats.add_argument("--steps", type=int, default=600)
+    stats.add_argument("--steps", type=int, default=DEFAULT_STEPS)
     stats.add_argument("--engine", default="pymunk", choices=ENGINES, help="physics engine")
     stats.add_argument("--markdown", action="store_true", help="print a Markdown table")
     stats.set_defaults(func=cmd_scene_stats)
@@ -97,7 +98,7 @@ def add_commands(subparsers: Any) -> None:
     comp = engines_sub.add_parser("compare", help="how much question answers depend on the physics engine")
     comp.add_argument("--scenes", default="all", help="all, or e.g. 1,2,5-7")
     comp.add_argument("--seeds", type=int, default=200, help="seeds 0..N-1 per scene")
-    comp.add_argument("--steps", type=int, default=600)
+    comp.add_argument("--steps", type=int, default=DEFAULT_STEPS)
     comp.add_argument("--engines", default="pymunk,box2d",
                       help="two engines: questions are instantiated on the first and re-run on the second")
     comp.add_argument("--workers", "--jobs", dest="workers", type=int, default=1,

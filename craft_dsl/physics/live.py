@@ -34,6 +34,7 @@ import numpy as np
 
 from ..errors import CounterfactualUnavailable, MissingExtraError
 from ..simulation import ObjectState, SimObject, Simulation, Trajectory
+from ..vocabulary import ENGINES
 from ..world import DEFAULT_STEPS, WorldSpec
 from .engine import ContactLog, Interval, PhysicsEngine, RawRun, ReplayPlan, splice
 from .events import events_from_log
@@ -43,7 +44,6 @@ _K = TypeVar("_K", bound=tuple[int, ...])
 
 
 #: Engine names accepted by :func:`get_engine` and ``simulate(..., engine=...)``.
-ENGINES = ("pymunk", "box2d")
 
 
 def get_engine(engine: str | PhysicsEngine) -> PhysicsEngine:

@@ -8,6 +8,8 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import CraftError
+from ..vocabulary import DEFAULT_ENGINE, ENGINES
+from ..world import DEFAULT_STEPS
 
 
 def cmd_render(args: argparse.Namespace) -> int:
@@ -38,7 +40,7 @@ def add_commands(sub: Any) -> None:
                              "or .png with --frame")
     render.add_argument("--frame", type=int, help="write only the frame after this many steps, as PNG")
     render.add_argument("--fps", type=float, default=60, help="frames per second, at most 60 (default 60)")
-    render.add_argument("--steps", type=int, default=600, help="simulation steps (default 600 = 10 s)")
-    render.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"), help="physics engine")
+    render.add_argument("--steps", type=int, default=DEFAULT_STEPS, help="simulation steps (default 600 = 10 s)")
+    render.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES, help="physics engine")
     render.add_argument("--quiet", action="store_true", help="no progress bar")
     render.set_defaults(func=cmd_render)
