@@ -9,6 +9,7 @@ from typing import Any
 
 from .program import to_json
 from .question_parsing import match_question
+from .ranges import parse_scene
 from .types import INVALID
 from .vocabulary import DEFAULT_ENGINE, ENGINES
 
@@ -51,7 +52,7 @@ def add_commands(sub: Any) -> None:
     )
     ask.add_argument("question", help='the question, e.g. "How many objects fall to the ground?"')
     ask.add_argument("--sim", help="recorded simulation JSON file (CRAFT format)")
-    ask.add_argument("--scene", type=int, help="or simulate this scene layout (1-20) live")
+    ask.add_argument("--scene", type=parse_scene, help="or simulate this scene layout (1-20 or a layout file) live")
     ask.add_argument("--seed", type=int, default=0, help="seed of the live simulation")
     ask.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES,
                      help="physics engine of the live simulation")

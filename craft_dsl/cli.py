@@ -13,6 +13,7 @@ from typing import Any
 from .errors import CraftError
 from .files import read_json, read_text
 from .program import Program, format_value, to_json
+from .ranges import parse_scene
 from .registry import MODULES
 from .vocabulary import DEFAULT_ENGINE, ENGINES
 
@@ -134,7 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
     run = sub.add_parser("run", help="run a program over a recorded simulation")
     run.add_argument("program", nargs="?", help="program text, or @file")
     run.add_argument("--sim", help="recorded simulation JSON file (CRAFT format)")
-    run.add_argument("--scene", type=int, help="or simulate this scene layout (1-20) live")
+    run.add_argument("--scene", type=parse_scene, help="or simulate this scene layout (1-20 or a layout file) live")
     run.add_argument("--seed", type=int, default=0, help="seed of the live simulation (default 0)")
     run.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES,
                      help="physics engine of the live simulation (default pymunk)")
@@ -173,8 +174,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
     try:
+        args = parser.parse_args(argv)  # a CraftError from an option's reader (--scene) is bad input too
         result: Any = args.func(args)
     except CraftError as err:
         print(f"error: {err}", file=sys.stderr)

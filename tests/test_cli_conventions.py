@@ -46,3 +46,37 @@ def test_a_missing_extra_is_one_line_and_exit_2() -> None:
     assert res.returncode == 2, res.stderr
     assert res.stderr.strip() == ("error: the box2d engine needs pybox2d, which is not installed: "
                                   "pip install 'craft-dsl[box2d]'")
+
+
+def test_a_scene_layout_file_is_accepted_wherever_a_scene_id_is(tmp_path: object,
+                                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    from pathlib import Path
+
+    from craft_dsl.resources import data_dir
+
+    folder = Path(str(tmp_path))
+    layout = folder / "my_scene.json"
+    layout.write_text((data_dir("scenes") / "scene_03.json").read_text())
+    assert main(["render", "--scene", str(layout), "--steps", "20", "--frame", "10",
+                 "--out", str(folder / "f.png")]) == 0
+    assert main(["run", "Count(SceneAtStart())", "--scene", str(layout)]) == 0
+    assert main(["engines", "compare", "--scenes", f"1,{layout}", "--seeds", "1", "--steps", "60", "--quiet"]) == 0
+    assert "my_scene" in capsys.readouterr().out
+    assert main(["scenes", "stats", "--scenes", str(layout), "--seeds", "1", "--steps", "30"]) == 0
+
+
+@pytest.mark.parametrize("bad", ["21", "0", "nope.json", "x"])
+def test_a_bad_scene_is_exit_2_naming_the_option(bad: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["render", "--scene", bad, "--out", "/tmp/never.png"]) == 2
+    assert "--scene" in capsys.readouterr().err
+
+
+def test_one_range_reader() -> None:
+    from craft_dsl.errors import CraftError
+    from craft_dsl.ranges import parse_ranges, parse_scenes
+
+    assert parse_ranges("1,3,5-7", "--x", 1, 20) == (1, 3, 5, 6, 7)
+    assert parse_scenes("all") == list(range(1, 21))
+    for bad in ("1-", "5-3", "0", "a,b", ""):
+        with pytest.raises(CraftError, match="--x"):
+            parse_ranges(bad, "--x", 1, 20)

@@ -17,7 +17,8 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, cast
+from pathlib import Path
+from typing import Any
 
 from ..templates import instantiate, templates
 from ..types import INVALID
@@ -79,7 +80,7 @@ class TaskResult:
     """One (scene, seed): per template (asked, agreed, INVALID on B, the first engine's answer as text) and
     both engines' scene statistics."""
 
-    scene: int
+    scene: int | str | Path
     seed: int
     answers: dict[str, tuple[bool, bool, bool, str]]
     stats: tuple[SceneStats, SceneStats]
@@ -89,7 +90,7 @@ class TaskResult:
 @dataclass(frozen=True)
 class Comparison:
     engines: tuple[str, str]
-    scenes: tuple[int, ...]
+    scenes: tuple[int | str | Path, ...]
     seeds: tuple[int, ...]
     steps: int
     templates: tuple[TemplateRow, ...]
@@ -112,7 +113,7 @@ class Comparison:
         return self.categories()[-1].rate
 
 
-def compare_task(scene: int, seed: int, engines: tuple[str, str] = (ENGINES[0], ENGINES[1]),
+def compare_task(scene: int | str | Path, seed: int, engines: tuple[str, str] = (ENGINES[0], ENGINES[1]),
                  steps: int = DEFAULT_STEPS, perturb: float = 0.0) -> TaskResult:
     """Simulate one (scene, seed) with both engines and compare every template's answer.
 
@@ -138,12 +139,13 @@ def compare_task(scene: int, seed: int, engines: tuple[str, str] = (ENGINES[0], 
         answer_b = template.program(params).run(sim_b)
         answers[tid] = (True, same_answer(answer_a, answer_b), answer_b is INVALID, repr(answer_a))
     # scene_stats passes its scene to simulate(), which also takes the (perturbed) WorldSpec itself
-    stats = (scene_stats(scene, [seed], engine=eng_a, steps=steps),
-             replace(scene_stats(cast(int, sim_b.world_spec), [seed], engine=eng_b, steps=steps), scene=scene))
+    stats_a = scene_stats(scene, [seed], engine=eng_a, steps=steps)
+    stats = (stats_a,
+             replace(scene_stats(sim_b.world_spec, [seed], engine=eng_b, steps=steps), scene=stats_a.scene))
     return TaskResult(scene, seed, answers, stats, time.perf_counter() - start)
 
 
-def _task(args: tuple[int, int, tuple[str, str], int, float]) -> TaskResult:
+def _task(args: tuple[int | str | Path, int, tuple[str, str], int, float]) -> TaskResult:
     return compare_task(*args)
 
 
@@ -162,7 +164,7 @@ def merge_stats(rows: Sequence[SceneStats]) -> SceneStats:
 
 
 def compare_engines(
-    scenes: Iterable[int],
+    scenes: Iterable[int | str | Path],
     seeds: Iterable[int],
     engines: tuple[str, str] = (ENGINES[0], ENGINES[1]),
     steps: int = DEFAULT_STEPS,

@@ -11,6 +11,7 @@ import sys
 from typing import Any
 
 from ..errors import CraftError
+from ..ranges import parse_scene
 from ..vocabulary import DEFAULT_ENGINE, ENGINES
 from .schema import PerceivedScene
 from .validation import Problem
@@ -223,7 +224,7 @@ def add_commands(sub: Any) -> None:
     cmds = perceive.add_subparsers(dest="perceive_command", required=True, metavar="COMMAND")
 
     export = cmds.add_parser("export", help="the ground-truth perceived scene of a simulation")
-    export.add_argument("--scene", type=int, help="simulate this scene layout (1-20) live")
+    export.add_argument("--scene", type=parse_scene, help="simulate this scene layout (1-20 or a layout file) live")
     export.add_argument("--seed", type=int, default=0, help="seed of the live simulation (default 0)")
     export.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES, help="physics engine")
     export.add_argument("--sim", help="or a recorded simulation JSON file (no tracks: start/end states only)")

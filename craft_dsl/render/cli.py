@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import CraftError
+from ..ranges import parse_scene
 from ..vocabulary import DEFAULT_ENGINE, ENGINES
 from ..world import DEFAULT_STEPS
 
@@ -33,7 +34,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def add_commands(sub: Any) -> None:
     render = sub.add_parser("render", help="render a simulated scene as a video (.mp4, .mpg, .gif) or a frame (.png)")
-    render.add_argument("--scene", type=int, required=True, help="scene layout 1-20")
+    render.add_argument("--scene", type=parse_scene, required=True, help="scene layout 1-20, or a layout file")
     render.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     render.add_argument("--out", required=True,
                         help="output file: .mp4 (H.264), .mpg (MPEG-1, as the published CRAFT videos), .gif, "
