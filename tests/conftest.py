@@ -1,4 +1,4 @@
-"""Shared fixtures: the Appendix C scene E1 and a compact builder for hand-made simulations.
+"""Shared fixtures: the worked example scene E1 and a compact builder for hand-made simulations.
 
 Compact descriptions used by :func:`make_sim`:
 
@@ -110,7 +110,7 @@ _E1_DATA: dict[str, Any] = json.loads(E1_PATH.read_text(encoding="utf-8"))
 
 @pytest.fixture(scope="session")
 def e1() -> Simulation:
-    """Scene E1 of the spec's Appendix C, loaded from tests/data/e1.json."""
+    """The worked example scene E1, loaded from tests/data/e1.json."""
     return load_simulation(E1_PATH)
 
 
@@ -122,7 +122,7 @@ def e1_dict() -> dict[str, Any]:
 
 @pytest.fixture(scope="session")
 def e1_expected() -> list[dict[str, Any]]:
-    """The 65 expected answers of Appendix C."""
+    """The 65 expected answers of the worked example (the original engine's)."""
     data: list[dict[str, Any]] = json.loads(E1_EXPECTED_PATH.read_text(encoding="utf-8"))
     return data
 

@@ -1,6 +1,6 @@
 """Live simulations: run a scene, derive events, and make clean counterfactuals and perturbations.
 
-Clean counterfactuals (spec README §4). Re-running a physics engine without one body is not clean:
+Clean counterfactuals. Re-running a physics engine without one body is not clean:
 removing a body changes the engine's internal pair order, and chaotic contacts amplify the rounding, so
 bodies that never met the removed one drift. Instead, the run without ``o`` is built against the base
 (factual) run as a monotone fixed point:
@@ -160,7 +160,7 @@ class LiveSimulation(Simulation):
         )
 
     def perturbed(self, seed: int, amount: float = 0.02) -> LiveSimulation:
-        """The whole scene re-simulated from a perturbed initial state (original-simulator §7, applied
+        """The whole scene re-simulated from a perturbed initial state (the original simulator's perturbation noise, applied
         once); its counterfactuals are live and not perturbed again."""
         world = perturb_world(self.world_spec, seed, amount)
         meta = dict(self.meta, perturbation_seed=seed, perturbation_amount=amount)
@@ -282,7 +282,7 @@ def clean_counterfactual(
 
 
 def perturb_world(world: WorldSpec, seed: int, amount: float = 0.02) -> WorldSpec:
-    """original-simulator §7 noise, once per dynamic body with one seeded generator (creation order):
+    """The original simulator's perturbation noise, once per dynamic body with one seeded generator (creation order):
     r ~ U(-1, 1); angle and velocity scaled by (1 + a r); x and y shifted by 10 a r / (1 + a r) when
     vx != 0."""
     rng = np.random.default_rng(seed)

@@ -1,6 +1,6 @@
 """The pymunk 7 (Chipmunk2D) engine adapter.
 
-Box2D behaviour emulated (spec ``original-simulator.md`` §1, §2, §10):
+Box2D behaviour of the original simulator, emulated:
 
 * friction 0.1 on every contact (each shape gets sqrt(0.1), Chipmunk multiplies); restitution 0.2 applied
   only when a contact begins with a normal approach speed above 1 m/s (Box2D's velocity threshold), else 0;

@@ -6,10 +6,10 @@ Two tools for a researcher holding the published CRAFT dataset (or one written i
   (``Program.from_nodes``) over its video's simulation from ``annotations.json``, and lists the questions whose
   recorded answer differs, and those that could not be re-answered (unreadable program, missing simulation).
 * :func:`score` scores a model's predictions against ``dataset_minimal.json`` (or ``dataset.json``): accuracy
-  overall, per paper column (C, CF, D, All), per paper sub-category (README §5), per question type and per
+  overall, per paper column (C, CF, D, All), per paper sub-category, per question type and per
   template, optionally on one part of a split file; :data:`PAPER_RESULTS` holds the published numbers.
 
-Formats (spec ``original-question-engine.md`` §4.9, §6.7-§6.11):
+Formats (those of the published CRAFT dataset):
 
 * ``dataset.json``: list of videos ``{"simulation_id", "video_path", "questions": {"info", "questions": [...]}}``;
   each question has ``program`` (node list with ``value_inputs``; ``_output`` is ignored), ``answer`` (raw JSON:

@@ -55,7 +55,7 @@ def build_dataset(
 
 
 def minimal_records(dataset: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """``dataset_minimal.json`` records (spec §6.11) of a ``dataset.json`` list, as the released data has them:
+    """``dataset_minimal.json`` records of a ``dataset.json`` list, as the released data has them:
     answers as strings, colours and shapes capitalised, ``answer_type`` and ``question_type`` filled in."""
     from ..vocabulary import COLORS, SHAPES, SIZES
 

@@ -445,5 +445,5 @@ def parse_split(data: Any, part: str, name: str = "split") -> set[tuple[int, int
 
 
 def read_split(path: PathLike, part: str) -> set[tuple[int, int]]:
-    """Read one part of ``split_info_random.json`` / ``split_info_hard.json`` (spec §6.7)."""
+    """Read one part of ``split_info_random.json`` / ``split_info_hard.json``."""
     return parse_split(_read_json(path, "split"), part, str(path))
