@@ -160,8 +160,8 @@ class LiveSimulation(Simulation):
         )
 
     def perturbed(self, seed: int, amount: float = 0.02) -> LiveSimulation:
-        """The whole scene re-simulated from a perturbed initial state (the original simulator's perturbation noise, applied
-        once); its counterfactuals are live and not perturbed again."""
+        """The whole scene re-simulated from a perturbed initial state (the original simulator's perturbation
+        noise, applied once); its counterfactuals are live and not perturbed again."""
         world = perturb_world(self.world_spec, seed, amount)
         meta = dict(self.meta, perturbation_seed=seed, perturbation_amount=amount)
         return LiveSimulation(world, self.engine.run(world, self.steps), self.engine, meta=meta,
