@@ -24,6 +24,10 @@ class DslType(str, Enum):
     def __str__(self) -> str:
         return self.value
 
+    # Enum's own __hash__ is a Python function; types are hashed in every checker lookup, and a str-valued
+    # member equals its string, so the string's hash is the consistent (and C-speed) one.
+    __hash__ = str.__hash__
+
 
 #: Types whose values are written as literals in a program ("Small", "Yellow", 3).
 SIDE_INPUT_TYPES = (DslType.COLOR, DslType.SHAPE, DslType.SIZE)
