@@ -211,24 +211,29 @@ class _Run:
         get_angvel, is_sleeping = _lib.cpBodyGetAngularVelocity, _lib.cpBodyIsSleeping
         vel = rec.vel
         vmax2 = max((float(vel[first, i, 0] ** 2 + vel[first, i, 1] ** 2) for i, _ in active), default=0.0)
-        step = space.step
+        # Chipmunk's step called directly: pymunk's Space.step wrapper only adds bookkeeping for shapes added or
+        # removed inside callbacks (none here), and costs as much as a small world's step.
+        c_step, c_space = _lib.cpSpaceStep, space._space
+        kinematic = _KinematicRows(rec, fps)
         self.stepping = True
         for k in range(first, steps):
             self.frame = k
-            for uid in rec.due(k):
+            due = rec.due(k)
+            for uid in due:
                 body = bodies[uid]
                 body.body_type = pymunk.Body.DYNAMIC
                 for shape in body.shapes:
                     shape.filter = _FILTER_DYNAMIC
                 _set_state(body, rec.state(rec.col[uid], k))
                 rec.activate(uid, body, k)
-            for i, body in rec.kinematic:
-                _set_state(body, rec.kinematic_state(i, k, fps))
+            if due:
+                kinematic = _KinematicRows(rec, fps)
+            kinematic.place(k)
             n_sub = eng.substeps_for(vmax2, fps)
             dt = 1.0 / fps / n_sub
             for j in range(n_sub):
                 self.substep = j
-                step(dt)
+                c_step(c_space, dt)
             vmax2 = 0.0
             for i, body in active:
                 # Direct Chipmunk getters: the recording is the hot loop of a run.
@@ -252,8 +257,36 @@ class _Run:
 
 
 def _set_state(body: pymunk.Body, state: BodyState) -> None:
+    """Place ``body`` in ``state`` (the Chipmunk setters pymunk's properties call, in the same order)."""
     position, angle, velocity, angular_velocity = state
-    body.position = position
-    body.angle = angle
-    body.velocity = velocity
-    body.angular_velocity = angular_velocity
+    h = body._body
+    _lib.cpBodySetPosition(h, position)
+    _lib.cpBodySetAngle(h, angle)
+    _lib.cpBodySetVelocity(h, velocity)
+    _lib.cpBodySetAngularVelocity(h, angular_velocity)
+
+
+class _KinematicRows:
+    """The replayed bodies' recorded rows as Python floats, placed frame by frame.
+
+    Frame ``k`` puts each replayed body on row ``k`` moving at the mean velocity that reaches row ``k + 1``:
+    the same values, in the same order of Chipmunk calls, as ``_set_state(body, rec.kinematic_state(...))``,
+    without converting numpy scalars every frame."""
+
+    def __init__(self, rec: StateRecorder[pymunk.Body], fps: float) -> None:
+        self.fps = fps
+        self.rows = [
+            (body._body, rec.pos[:, i, 0].tolist(), rec.pos[:, i, 1].tolist(), rec.ang[:, i].tolist())
+            for i, body in rec.kinematic
+        ]
+
+    def place(self, k: int) -> None:
+        fps = self.fps
+        set_pos, set_angle = _lib.cpBodySetPosition, _lib.cpBodySetAngle
+        set_vel, set_angvel = _lib.cpBodySetVelocity, _lib.cpBodySetAngularVelocity
+        for h, xs, ys, angles in self.rows:
+            x0, y0, a0 = xs[k], ys[k], angles[k]
+            set_pos(h, (x0, y0))
+            set_angle(h, a0)
+            set_vel(h, ((xs[k + 1] - x0) * fps, (ys[k + 1] - y0) * fps))
+            set_angvel(h, (angles[k + 1] - a0) * fps)
