@@ -56,9 +56,9 @@ import numpy as np
 from .. import semantics
 from ..errors import CounterfactualUnavailable
 from ..program import Program, to_json
+from ..semantics import ObjectSet
 from ..simulation import Simulation
 from ..templates import Template, paraphrases, templates
-from ..semantics import ObjectSet
 from ..types import INVALID
 from ..vocabulary import COLORS, SHAPES, SIZES
 from .synonyms import SYNONYMS
