@@ -222,17 +222,18 @@ class DaskExecutor:
         futures: dict[Any, InstanceTask] = {}
         try:
             slots = max(1, sum(client.nthreads().values()) or 1) * (1 + QUEUED_PER_WORKER)
-            pending = self._distributed.as_completed()
 
-            def submit() -> None:
+            def submit() -> Any:
                 task = todo.popleft()
                 key = f"craft-dsl-instance-{task.seed}-{task.instance_id}-{int(task.questions)}{int(task.media)}"
                 fut = client.submit(run_instance, task, key=key, pure=False, retries=2)
                 futures[fut] = task
-                pending.add(fut)
+                return fut
 
-            while todo and len(futures) < slots:
-                submit()
+            first = [submit() for _ in range(min(slots, len(todo)))]
+            if not first:
+                return failures
+            pending = self._distributed.as_completed(first, loop=client.loop)
             for fut in pending:
                 task = futures.pop(fut)
                 try:
@@ -243,7 +244,7 @@ class DaskExecutor:
                     on_result(result)
                 fut.release()
                 if todo:
-                    submit()
+                    pending.add(submit())
         finally:
             if futures:
                 client.cancel(list(futures), force=True)

@@ -355,8 +355,7 @@ def generate_dataset(
         state = load_state(root)
         complete = state is None and not (root / WORK_FOLDER).exists() and (root / "generation_report.json").is_file()
         if state is None and not complete:
-            shutil.rmtree(root / WORK_FOLDER, ignore_errors=True)
-            state = new_state()
+            state = new_state()  # shards written before the first committed block are kept
         merger = Merger(root, config, work, state, log.write) if state is not None else None
         merged_ids = {i for i, _ in work} if merger is None else \
             {i for b in range(merger.merged) for i in merger.block_ids(b)}
