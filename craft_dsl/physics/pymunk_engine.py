@@ -215,24 +215,33 @@ class _Run:
         # removed inside callbacks (none here), and costs as much as a small world's step.
         c_step, c_space = _lib.cpSpaceStep, space._space
         kinematic = _KinematicRows(rec, fps)
+        pending = rec.pending
+        # substeps_for(), inlined: the same arithmetic
+        sqrt, ceil, max_move = math.sqrt, math.ceil, eng.max_move
+        min_sub, max_sub = eng.substeps, eng.max_substeps
         self.stepping = True
         for k in range(first, steps):
             self.frame = k
-            due = rec.due(k)
-            for uid in due:
-                body = bodies[uid]
-                body.body_type = pymunk.Body.DYNAMIC
-                for shape in body.shapes:
-                    shape.filter = _FILTER_DYNAMIC
-                _set_state(body, rec.state(rec.col[uid], k))
-                rec.activate(uid, body, k)
-            if due:
+            if pending and pending[0][0] == k:
+                for uid in rec.due(k):
+                    body = bodies[uid]
+                    body.body_type = pymunk.Body.DYNAMIC
+                    for shape in body.shapes:
+                        shape.filter = _FILTER_DYNAMIC
+                    _set_state(body, rec.state(rec.col[uid], k))
+                    rec.activate(uid, body, k)
                 kinematic = _KinematicRows(rec, fps)
-            kinematic.place(k)
-            n_sub = eng.substeps_for(vmax2, fps)
+            if kinematic.rows:
+                kinematic.place(k)
+            need = ceil(sqrt(vmax2) / fps / max_move)
+            at_least = min_sub if need < min_sub else need
+            n_sub = max_sub if at_least > max_sub else at_least
             dt = 1.0 / fps / n_sub
-            for j in range(n_sub):
-                self.substep = j
+            # the separate callback only asks whether a sub-step is the frame's first (see _separate)
+            self.substep = 0
+            c_step(c_space, dt)
+            self.substep = 1
+            for _ in range(n_sub - 1):
                 c_step(c_space, dt)
             vmax2 = 0.0
             for i, body in active:
@@ -248,8 +257,11 @@ class _Run:
                     aw_.append(False)
                 else:
                     v = get_vel(h)
-                    v_.append((v.x, v.y))
-                    vmax2 = max(vmax2, v.x * v.x + v.y * v.y)
+                    vx, vy = v.x, v.y
+                    v_.append((vx, vy))
+                    speed2 = vx * vx + vy * vy
+                    if speed2 > vmax2:
+                        vmax2 = speed2
                     w_.append(get_angvel(h))
                     aw_.append(True)
         self.stepping = False
