@@ -98,6 +98,10 @@ class StageClock:
     ``"<stage>: runs"`` (a whole scene) and ``"<stage>: variations"`` (a counterfactual re-run)."""
 
     seconds: dict[str, float] = field(default_factory=lambda: defaultdict(float))
+    #: Number of physics runs per ``"<stage>: runs"`` / ``"<stage>: variations"`` key.
+    runs: dict[str, int] = field(default_factory=lambda: defaultdict(int))
+    #: Frames simulated (a counterfactual re-run starts at its first activated frame).
+    frames: int = 0
     current: str = ""
 
     @contextmanager
@@ -124,8 +128,10 @@ class _TimedEngine:
         try:
             return self._engine.run(world, steps, replay)
         finally:
-            kind = "variations" if replay is not None else "runs"
-            self._clock.seconds[f"{self._clock.current}: {kind}"] += time.perf_counter() - start
+            key = f"{self._clock.current}: {'variations' if replay is not None else 'runs'}"
+            self._clock.seconds[key] += time.perf_counter() - start
+            self._clock.runs[key] += 1
+            self._clock.frames += steps - (replay.first_frame if replay is not None else 0)
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._engine, name)

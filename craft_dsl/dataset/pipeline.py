@@ -23,6 +23,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -284,6 +285,18 @@ class _NoProgress:
         pass
 
 
+def _peak_memory() -> str:
+    """Peak resident memory of this process and of its largest finished child (the local workers)."""
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not POSIX
+        return "peak memory not measured"
+    scale = 1 if sys.platform == "darwin" else 1024  # ru_maxrss: bytes on macOS, KiB elsewhere
+    main = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * scale / 2**20
+    child = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss * scale / 2**20
+    return f"peak memory: main process {main:.0f} MiB, largest worker {child:.0f} MiB"
+
+
 # -- orchestrator -----------------------------------------------------------------------------------------------
 
 
@@ -422,7 +435,8 @@ def generate_dataset(
             park_videos_without_questions(root, dict(work), with_questions, config.video_format)
         computed = sum(t.questions for t in tasks)
         log.write(f"done: {computed} videos computed in {elapsed:.1f} s"
-                  + (f" ({60 * computed / elapsed:.1f} videos/min)" if computed and elapsed > 0 else ""))
+                  + (f" ({60 * computed / elapsed:.1f} videos/min)" if computed and elapsed > 0 else "")
+                  + f"; {_peak_memory()}")
         return dict(report, resumed=resumed)
 
 

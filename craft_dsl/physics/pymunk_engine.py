@@ -129,17 +129,19 @@ class PymunkEngine:
         return _Run(self, world, steps, replay).execute()
 
     def run_bare(self, world: WorldSpec, steps: int) -> pymunk.Space:
-        """Step the same space with no callbacks and no recording (the benchmark's baseline)."""
+        """Step the same space with no callbacks and no recording (the benchmarks' floor: Chipmunk's step called
+        directly, as :meth:`run` does)."""
         space, bodies, _ = self.build_space(world)
         fps = float(world.steps_per_second)
         handles = [b._body for b in bodies.values() if b.body_type == pymunk.Body.DYNAMIC]
         get_vel = _lib.cpBodyGetVelocity
         vmax2 = max((v[0] ** 2 + v[1] ** 2 for v in (b.velocity for b in world.bodies if b.dynamic)), default=0.0)
+        c_step, c_space = _lib.cpSpaceStep, space._space
         for _ in range(steps):
             n = self.substeps_for(vmax2, fps)
             dt = 1.0 / fps / n
             for _ in range(n):
-                space.step(dt)
+                c_step(c_space, dt)
             vmax2 = 0.0
             for h in handles:
                 v = get_vel(h)
@@ -169,16 +171,24 @@ class _Run:
         rec.begin(key, self.frame)
         if ia.sensor or ib.sensor:
             return
-        # Box2D's restitution threshold: bounce only on an approach faster than 1 m/s.
-        n = arb.normal
+        # Box2D's restitution threshold: bounce only on an approach faster than 1 m/s. (The Chipmunk calls
+        # behind pymunk's arb.normal, arb.contact_point_set, body.velocity_at_world_point and arb.restitution,
+        # with the same arithmetic, without building their Python objects.)
         ba, bb = sa.body, sb.body
         assert ba is not None and bb is not None
+        h, ha, hb = arb._arbiter, ba._body, bb._body
+        n = _lib.cpArbiterGetNormal(h)
+        nx, ny = n.x, n.y
+        points = _lib.cpArbiterGetContactPointSet(h)
+        velocity_at = _lib.cpBodyGetVelocityAtWorldPoint
         approach = 0.0
-        for pt in arb.contact_point_set.points:
-            p = pt.point_a
-            dv = bb.velocity_at_world_point(p) - ba.velocity_at_world_point(p)
-            approach = max(approach, -(dv.x * n.x + dv.y * n.y))
-        arb.restitution = RESTITUTION if approach > RESTITUTION_THRESHOLD else 0.0
+        for i in range(points.count):
+            pa = points.points[i].pointA
+            p = (pa.x, pa.y)
+            vb, va = velocity_at(hb, p), velocity_at(ha, p)
+            dvx, dvy = vb.x - va.x, vb.y - va.y
+            approach = max(approach, -(dvx * nx + dvy * ny))
+        _lib.cpArbiterSetRestitution(h, RESTITUTION if approach > RESTITUTION_THRESHOLD else 0.0)
 
     def _separate(self, arb: pymunk.Arbiter, space: pymunk.Space, data: Any) -> None:
         if not self.stepping or arb.is_removal:
