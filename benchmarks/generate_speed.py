@@ -179,14 +179,14 @@ def runs(size: int, baseline: str | None) -> None:
 
 
 def interrupt(trials: int) -> None:
-    print(f"\nCtrl-C: SIGINT to the process group of 'generate --size 200 --workers 2' at a random moment; "
-          f"load {load()}")
+    print(f"\nCtrl-C: SIGINT to the process group of 'generate --size 200' at a random moment; load {load()}")
     rng = random.Random(0)
     with tempfile.TemporaryDirectory() as tmp:
         for k in range(trials):
             out = Path(tmp) / f"i{k}"
+            workers = 1 + k % 3
             proc = subprocess.Popen([sys.executable, "-m", "craft_dsl", "generate", "--size", "200", "--out",
-                                     str(out), "--workers", "2", "--quiet"], start_new_session=True,
+                                     str(out), "--workers", str(workers), "--quiet"], start_new_session=True,
                                     stderr=subprocess.PIPE, text=True)
             while not (out / P.LOG_FILE).is_file() or "start:" not in (out / P.LOG_FILE).read_text():
                 time.sleep(0.05)
@@ -195,7 +195,8 @@ def interrupt(trials: int) -> None:
             os.killpg(proc.pid, signal.SIGINT)
             _out, err = proc.communicate()
             took = time.perf_counter() - sent
-            print(f"  trial {k}: exited {proc.returncode} after {took:.2f} s; traceback: {'Traceback' in err}")
+            print(f"  trial {k}, {workers} worker(s): exited {proc.returncode} after {took:.2f} s; "
+                  f"traceback: {'Traceback' in err}")
 
 
 def main() -> None:
@@ -204,7 +205,7 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=40, help="videos of each whole run (default 40)")
     parser.add_argument("--sections", default="stages,runs,interrupt")
     parser.add_argument("--baseline", help="a checkout of an older craft_dsl to compare whole runs with")
-    parser.add_argument("--trials", type=int, default=3, help="Ctrl-C trials (default 3)")
+    parser.add_argument("--trials", type=int, default=6, help="Ctrl-C trials, with 1, 2, 3 workers in turn")
     args = parser.parse_args()
     sections = set(args.sections.split(","))
     if "stages" in sections:
