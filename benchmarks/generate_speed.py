@@ -68,7 +68,7 @@ def stages(n: int) -> None:
 
     config = P.GenerationConfig.make(size=n)
     work = P.work_list(config)
-    tasks = [P._task(config, i, s, questions=True, media=False) for i, s in work]
+    tasks = [P.instance_task(config, i, s, questions=True, media=False) for i, s in work]
     run_instance(tasks[0])  # warm up: imports, compiled templates
     clock = StageClock()
     results = {}

@@ -318,12 +318,16 @@ def test_other_configuration_in_folder_is_refused(reference: tuple[Path, dict[st
 def test_cli_generate(reference: tuple[Path, dict[str, Any]], capsys: pytest.CaptureFixture[str]) -> None:
     out, _ = reference
     before = hashes(out)
+    # temporary files a killed run leaves (atomic writes interrupted) are removed by the next run
+    (out / ".dataset.k3j2.tmp.json").write_text("[")
+    (out / "questions" / ".qa_000001.x8.tmp.json").write_text("{")
     argv = ["generate", "--size", "4", "--seed", "0", "--scenes", "1-2", "--steps", "300", "--perturbations", "1",
             "--out", str(out), "--workers", "2"]
     assert cli_main(argv) == 0  # everything already done: resumes, rewrites the same bytes
     text = capsys.readouterr()
     assert "4 videos" in text.out and "craft-dsl verify --dataset" in text.out and "resuming" in text.err
     assert hashes(out) == before
+    assert "removed 2 temporary files of an interrupted run" in (out / P.LOG_FILE).read_text()
     assert cli_main(["generate", "--size", "0", "--out", str(out)]) == 2
     assert cli_main(["generate", "--size", "4", "--scenes", "1,x", "--out", str(out)]) == 2
     assert "error:" in capsys.readouterr().err

@@ -300,7 +300,9 @@ def _peak_memory() -> str:
 # -- orchestrator -----------------------------------------------------------------------------------------------
 
 
-def _task(config: GenerationConfig, instance_id: int, scene: int, questions: bool, media: bool) -> InstanceTask:
+def instance_task(config: GenerationConfig, instance_id: int, scene: int, questions: bool = True,
+                  media: bool = False) -> InstanceTask:
+    """The task of one video: its questions (the shard) and/or its media files."""
     return InstanceTask(instance_id, scene, config.seed, config.steps, config.perturbations, config.amount,
                         config.engine, config.templates, config.video_format, questions, media, config.downsampled)
 
@@ -377,7 +379,7 @@ def generate_dataset(
         for i, scene in work:
             media = config.videos and not media_complete(root, scene, i, config.video_format, config.downsampled)
             if i not in done or media:
-                tasks.append(_task(config, i, scene, questions=i not in done, media=media))
+                tasks.append(instance_task(config, i, scene, questions=i not in done, media=media))
         resumed = len(done)
         log.write(f"start: {len(work)} videos, {resumed} already done, {len(tasks)} tasks on {executor.description}"
                   + (f"; removed {swept} temporary files of an interrupted run" if swept else ""))
@@ -443,6 +445,6 @@ def generate_dataset(
 __all__ = [
     "CONTENT_FIELDS", "FORMAT_VERSION", "GenerationConfig", "HARD_SPLIT", "InstanceTask", "Progress",
     "RECORDED_FIELDS", "SPLIT_PARTS", "answer_label", "balance", "dataset_videos", "differing_settings",
-    "generate_dataset", "hard_split", "id6", "instance_seeds", "post_process", "random_split", "run_instance",
-    "sweep_temporary_files", "template_id_of", "video_path", "work_list",
+    "generate_dataset", "hard_split", "id6", "instance_seeds", "instance_task", "post_process", "random_split",
+    "run_instance", "sweep_temporary_files", "template_id_of", "video_path", "work_list",
 ]
