@@ -136,9 +136,10 @@ def test_sigkill_at_random_moments_then_resume(reference: Path, tmp_path: Path) 
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc to find the worker processes")
-def test_ctrl_c_exits_130_without_traceback_and_resumes(reference: Path, tmp_path: Path) -> None:
+@pytest.mark.parametrize("workers", [1, 2])
+def test_ctrl_c_exits_130_without_traceback_and_resumes(reference: Path, tmp_path: Path, workers: int) -> None:
     out = tmp_path / "run"
-    proc = _start(out, workers=2)
+    proc = _start(out, workers=workers)
     assert _wait_for_log(out, "start: "), proc.communicate()
     time.sleep(0.5)
     workers = _children(proc.pid)

@@ -112,18 +112,24 @@ class _Worker:
 
 
 class LocalExecutor:
-    """Local processes (``workers`` > 1) or this process (``workers`` == 1)."""
+    """``workers`` local processes; with ``in_process`` (the default for one worker) the tasks run in this process
+    instead (no start-up cost, easy to debug). The command line always uses processes: a Ctrl-C that lands while
+    pymunk runs a Python collision callback would be printed and swallowed by cffi there, whereas the main process,
+    only waiting for results, stops at once."""
 
-    def __init__(self, workers: int = 1) -> None:
+    def __init__(self, workers: int = 1, in_process: bool | None = None) -> None:
         if workers < 1:
             raise CraftError(f"--workers {workers}: give at least 1")
         self.workers = workers
-        self.description = f"{workers} local worker process{'es' if workers > 1 else ''}" if workers > 1 else \
-            "this process"
+        self.in_process = workers == 1 if in_process is None else in_process
+        self.description = "this process" if self.in_process else \
+            f"{workers} local worker process{'es' if workers > 1 else ''}"
 
     def run(self, tasks: Iterable[InstanceTask], on_result: OnResult) -> list[Failure]:
         todo = deque(tasks)
-        if self.workers <= 1 or len(todo) <= 1:
+        if not todo:
+            return []
+        if self.in_process:
             failures: list[Failure] = []
             for task in todo:
                 try:
@@ -254,9 +260,10 @@ class DaskExecutor:
 
 
 def make_executor(kind: str, workers: int = 1, scheduler: Any = None) -> Executor:
-    """The executor named ``kind`` (``local`` or ``dask``)."""
+    """The executor named ``kind`` (``local``: always worker processes, or ``dask``), as the command line uses
+    it."""
     if kind == "local":
-        return LocalExecutor(workers)
+        return LocalExecutor(workers, in_process=False)
     if kind == "dask":
         if not scheduler:
             raise CraftError("--executor dask needs --scheduler tcp://HOST:PORT (the address 'dask scheduler' "
