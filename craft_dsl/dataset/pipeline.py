@@ -410,8 +410,9 @@ def generate_dataset(
             failures = executor.run(tasks, on_result)
             if merge_thread is not None:
                 merge_thread.close()
-        except BaseException:
-            log.write("interrupted: re-run the same command to resume")
+        except BaseException as err:
+            log.write("interrupted: re-run the same command to resume" if isinstance(err, KeyboardInterrupt)
+                      else f"stopped by an error: {type(err).__name__}: {err}")
             if merger is not None:
                 merger.stop.set()
             if merge_thread is not None:
