@@ -26,9 +26,11 @@ both the exploration order and the sequence of draws are the original's.
 Pruning. As in the original, the search prunes at ``unique`` nodes only. For speed the candidate set that
 feeds a chain of attribute filters is evaluated once per binding of the earlier parameters (the node-list
 prefix ending at that set, run with :meth:`Program.from_nodes`, cached per (prefix, bindings)), and the
-filters and ``unique`` are then applied to it directly (equality on size, colour and shape, exactly the
-semantics of ``filter_size/color/shape``). ``fast=False`` in :func:`instantiate_dfs` evaluates every
-``unique`` prefix with the DSL instead (the tests check both give the same choices).
+filters and ``unique`` are then applied to it with the evaluator's own module functions
+(:func:`craft_dsl.semantics.filter_size` / ``filter_color`` / ``filter_shape`` and ``unique``), so the search
+has no semantics of its own. ``fast=False`` in :func:`instantiate_dfs` evaluates every ``unique`` prefix as a
+whole program instead (the tests check both give the same choices). Compiled prefixes are cached per process
+(programs do not depend on the scene), so a worker compiles each template prefix once.
 
 Deviations from the original, and why:
 
@@ -45,14 +47,16 @@ Deviations from the original, and why:
 from __future__ import annotations
 
 import re
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from functools import lru_cache
 from typing import Any, Protocol
 
 import numpy as np
 
+from .. import semantics
 from ..errors import CounterfactualUnavailable
 from ..program import Program, to_json
+from ..semantics import ObjectSet
 from ..simulation import Simulation
 from ..templates import Template, paraphrases, templates
 from ..types import INVALID
@@ -63,11 +67,11 @@ __all__ = ["generate_questions", "instantiate_dfs", "perturbation_filter", "rend
 
 _STAR = re.compile(r"\*(.+?)\*")
 
-#: Side-input node type -> (attribute of SimObject, vocabulary enumerated by the DFS), §4.5.
-_FILTERS: dict[str, tuple[str, tuple[str, ...]]] = {
-    "filter_size": ("size", SIZES),
-    "filter_color": ("color", COLORS),
-    "filter_shape": ("shape", SHAPES),
+#: Side-input node type -> (the evaluator's module function, vocabulary enumerated by the DFS), §4.5.
+_SIDE_INPUT_MODULES: dict[str, tuple[Callable[[Simulation, ObjectSet, str], ObjectSet], tuple[str, ...]]] = {
+    "filter_size": (semantics.filter_size, SIZES),
+    "filter_color": (semantics.filter_color, COLORS),
+    "filter_shape": (semantics.filter_shape, SHAPES),
 }
 
 
@@ -106,9 +110,9 @@ def _compiled(template_id: str, end: int, params: tuple[tuple[str, str], ...]) -
     return Program.from_nodes(templates()[template_id].nodes[: end + 1], dict(params))
 
 
-@lru_cache(maxsize=8192)
 def program_nodes(program: Program, sim: Simulation) -> list[dict[str, Any]]:
-    """The record's ``program``: ``program.to_nodes(outputs=sim)`` (the node list itself is cached per program)."""
+    """The record's ``program``: ``program.to_nodes(outputs=sim)`` (not cached: a cache keyed by the simulation
+    would keep every simulation of a worker alive)."""
     return program.to_nodes(outputs=sim)
 
 
@@ -146,7 +150,7 @@ class _Search:
             if node["type"] == "unique":
                 (i,) = node["inputs"]
                 if self.fast and i in sets:
-                    if len(sets[i]) != 1:
+                    if semantics.unique(self.sim, sets[i]) is INVALID:
                         return
                 elif self.prefix_value(k, params) is INVALID:
                     return
@@ -160,7 +164,7 @@ class _Search:
         self, k: int, placeholder: str, params: dict[str, str], sets: dict[int, tuple[int, ...]]
     ) -> Iterator[tuple[dict[str, str], Program, Any]]:
         node = self.nodes[k]
-        attr, vocabulary = _FILTERS[node["type"]]
+        module, vocabulary = _SIDE_INPUT_MODULES[node["type"]]
         (i,) = node["inputs"]
         if self.fast:
             base = sets[i] if i in sets else self.prefix_value(i, params)
@@ -172,8 +176,7 @@ class _Search:
             child = {**params, placeholder: value}
             child_sets = sets
             if self.fast:
-                by_id = self.sim.object
-                child_sets = {**sets, k: tuple(o for o in base if getattr(by_id(o), attr) == value)}
+                child_sets = {**sets, k: module(self.sim, base, value)}
             yield from self._visit(k + 1, child, child_sets)
 
 
