@@ -224,16 +224,14 @@ def run_instance(task: InstanceTask, clock: StageClock | None = None) -> Instanc
 def _shard(task: InstanceTask, sim: Any, sim_seed: int, vpath: str, generated: list[dict[str, Any]],
            kept: list[dict[str, Any]], pstats: dict[str, int]) -> bytes:
     from ..recorded import simulation_dict
-    from ..verify import minimal_records
     from ..verify.categories import category_of, family_of
+    from ..verify.records import minimal_records, video_record
     from .hf import row, row_text
 
     kept_keys = {q["question_index"] for q in kept}
     dynamic_shapes = sorted({o.shape for o in sim.objects if o.dynamic})
     processed, pp_dropped = post_process(kept, {task.instance_id: len(dynamic_shapes)})
-    video = {"simulation_id": str(task.scene), "video_path": vpath,
-             "questions": {"info": {"video_filename": vpath, "video_index": task.instance_id},
-                           "questions": processed}}
+    video = video_record(task.scene, vpath, task.instance_id, processed)
     minimal = minimal_records([video])
     records, minimals, rows = [], [], []
     for rec, mini in zip(processed, minimal, strict=True):

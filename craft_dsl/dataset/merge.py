@@ -31,6 +31,7 @@ from typing import Any
 from ..atomic import atomic_path
 from ..errors import CraftError
 from ..templates import templates
+from ..verify.records import video_record
 from .instance import read_shard
 from .layout import id6, park_videos_without_questions
 from .stages import SPLIT_PARTS, balance, hard_part, random_parts, video_path
@@ -193,9 +194,7 @@ class Merger:
                     per_template[tid]["final"] += 1
             if chosen:
                 with_questions += 1
-                element = json.dumps({"simulation_id": str(scene), "video_path": vpath,
-                                      "questions": {"info": {"video_filename": vpath, "video_index": i},
-                                                    "questions": []}})
+                element = json.dumps(video_record(scene, vpath, i, []))
                 assert element.endswith("[]}}")
                 out["dataset"].append(element[:-4] + "[" + ", ".join(shard.records[k] for k in chosen) + "]}}")
                 out["minimal"].extend(shard.minimal[k] for k in chosen)

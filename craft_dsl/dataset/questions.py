@@ -60,6 +60,7 @@ from ..semantics import ObjectSet
 from ..simulation import Simulation
 from ..templates import Template, paraphrases, templates
 from ..types import INVALID
+from ..verify.records import question_record, template_id_of
 from ..vocabulary import COLORS, SHAPES, SIZES
 from .synonyms import SYNONYMS
 
@@ -235,18 +236,10 @@ def generate_questions(
     for template in _selected_templates(template_ids):
         starred = star_paraphrases(texts[template.id], rng)
         for params, program, answer in instantiate_dfs(template, sim, rng, instances_per_template):
-            records.append({
-                "video_filename": video_filename,
-                "video_index": video_index,
-                "video": f"{video_index:06d}",
-                "question": render_text(starred, params, rng),
-                "program": program_nodes(program, sim),
-                "answer": to_json(answer, original=True),
-                "template_filename": f"{template.family}.json",
-                "question_family_index": template.index,
-                "question_index": len(records),
-                "template_id": template.id,
-            })
+            records.append(question_record(
+                video_filename=video_filename, video_index=video_index, question=render_text(starred, params, rng),
+                program=program_nodes(program, sim), answer=to_json(answer, original=True), family=template.family,
+                family_index=template.index, question_index=len(records), template_id=template.id))
     return records
 
 
@@ -289,7 +282,7 @@ def perturbation_filter(
     seeds = [int(rng.integers(2**31 - 1)) for _ in range(perturbations)]
     stats: dict[str, int] = {}
     for q in questions:
-        stats.setdefault(_template_id_of(q), 0)
+        stats.setdefault(template_id_of(q), 0)
     alive = [(q, Program.from_nodes(q["program"])) for q in questions]
     for seed in seeds:
         if not alive:
@@ -300,13 +293,6 @@ def perturbation_filter(
             if str(_answer_on(program, psim)) == str(q["answer"]):
                 survivors.append((q, program))
             else:
-                stats[_template_id_of(q)] += 1
+                stats[template_id_of(q)] += 1
         alive = survivors
     return [q for q, _ in alive], stats
-
-
-def _template_id_of(q: Mapping[str, Any]) -> str:
-    tid = q.get("template_id")
-    if isinstance(tid, str):
-        return tid
-    return f"{str(q['template_filename']).removesuffix('.json')}_{q['question_family_index']}"

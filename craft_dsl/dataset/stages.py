@@ -10,12 +10,12 @@ from __future__ import annotations
 
 from collections import Counter, defaultdict
 from collections.abc import Iterable, Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..templates import DROPPED, templates
+from ..verify.records import template_id_of, video_record
 from .layout import DEFAULT_VIDEO_FORMAT, video_relpath
 
 #: Fixed "hard" split of the 20 scene ids (spec §6.7, computed by the original with seed 10435).
@@ -58,13 +58,6 @@ def random_parts(videos: Iterable[int], seed: int) -> dict[int, str]:
 # -- post-process (§6.5) ------------------------------------------------------------------------------------
 
 _PREVENT_FIXES = ("is prevented by", "is kept by", "is held by", "is blocked by")
-
-
-def template_id_of(record: Mapping[str, Any]) -> str:
-    tid = record.get("template_id")
-    if tid:
-        return str(tid)
-    return f"{Path(str(record['template_filename'])).stem}_{record['question_family_index']}"
 
 
 def _is_shape_answer(answer: Any) -> bool:
@@ -196,8 +189,7 @@ def dataset_videos(
     for vi in sorted(by_video):
         path = video_path(scene_of[vi], vi, video_format)
         qs = sorted(by_video[vi], key=lambda r: int(r["question_index"]))
-        out.append({"simulation_id": str(scene_of[vi]), "video_path": path,
-                    "questions": {"info": {"video_filename": path, "video_index": vi}, "questions": qs}})
+        out.append(video_record(scene_of[vi], path, vi, qs))
     return out
 
 

@@ -39,7 +39,7 @@ from .annotations import Annotations, index_json_object, open_annotations
 from .answers import answers_agree, normalise_answer
 from .categories import CATEGORIES, FAMILIES, QUESTION_TYPES, category_of, family_of, question_type_of
 from .check import Mismatch, Tally, VerifyError, VerifyReport, verify_dataset
-from .fixture import build_dataset, minimal_records
+from .fixture import build_dataset
 from .formats import (
     PathLike,
     Question,
@@ -55,6 +55,7 @@ from .formats import (
     read_split,
 )
 from .paper import PAPER_HUMANS, PAPER_RESULTS, PaperRow
+from .records import minimal_records, question_record, template_id_of, video_record
 from .scoring import Score, ScoreReport, paper_table, score
 
 __all__ = [
@@ -79,6 +80,9 @@ __all__ = [
     "family_of",
     "index_json_object",
     "minimal_records",
+    "question_record",
+    "template_id_of",
+    "video_record",
     "normalise_answer",
     "open_annotations",
     "paper_table",
