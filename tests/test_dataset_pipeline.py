@@ -77,7 +77,7 @@ def test_instance_seeds_depend_only_on_seed_and_id() -> None:
     assert a[1].generate_state(2).tolist() != a[2].generate_state(2).tolist()
 
 
-# -- post-process (§6.5) --------------------------------------------------------------------------------------
+# -- post-process --------------------------------------------------------------------------------------
 
 
 def test_post_process_rules() -> None:
@@ -102,7 +102,7 @@ def test_post_process_rules() -> None:
     assert not {P.template_id_of(r) for r in kept} & DROPPED
 
 
-# -- balancing (§6.6) -----------------------------------------------------------------------------------------
+# -- balancing -----------------------------------------------------------------------------------------
 
 
 def _scene_of(records: list[dict[str, Any]], scene: int = 1) -> dict[int, int]:
@@ -159,7 +159,7 @@ def test_balance_is_seeded_and_independent_of_other_groups() -> None:
     assert len(draws) > 1  # the seed matters
 
 
-# -- splits (§6.7) --------------------------------------------------------------------------------------------
+# -- splits --------------------------------------------------------------------------------------------
 
 
 def test_hard_split_is_the_fixed_scene_split() -> None:

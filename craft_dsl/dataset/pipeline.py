@@ -1,4 +1,4 @@
-"""Dataset generation (spec ``original-question-engine.md`` §6, README §6): configuration and the orchestrator.
+"""Dataset generation: configuration and the orchestrator.
 
 :func:`generate_dataset` chains the stages:
 
@@ -146,7 +146,7 @@ class GenerationConfig(BaseModel):
 def work_list(config: GenerationConfig) -> list[tuple[int, int]]:
     """``(instance_id, scene_id)`` pairs in scene blocks, ids 0 .. size-1.
 
-    Each scene gets ``size // len(scenes)`` consecutive ids, as in the original (§6.3); the remainder
+    Each scene gets ``size // len(scenes)`` consecutive ids, as in the original; the remainder
     ``size % len(scenes)`` is not dropped (the original dropped it) but gives one more video to each of the
     first scenes, so exactly ``size`` videos are made. When ``size`` is a multiple of the number of scenes the
     ids match the original's (``scene = scenes[id // (size // len(scenes))]``).

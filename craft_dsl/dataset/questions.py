@@ -1,9 +1,9 @@
-"""Per-video question generation: one simulation -> its CRAFT questions (spec original-question-engine.md §4).
+"""Per-video question generation: one simulation -> its CRAFT questions.
 
 :func:`generate_questions` reproduces the original generator (``svqa/generate_questions.py``) for one video:
-starred-word synonyms (§4.3), depth-first instantiation with shuffled value lists (§4.4), paraphrase choice and
-value synonyms (§4.5, §4.8), and the output record (§4.9). :func:`perturbation_filter` is the perturbation check
-(§6.4), improved as the spec README §6 decides: the *whole* scene is perturbed once per perturbation.
+starred-word synonyms, depth-first instantiation with shuffled value lists, paraphrase choice and
+value synonyms, and the output record. :func:`perturbation_filter` is the perturbation check,
+improved: the *whole* scene is perturbed once per perturbation.
 
 Randomness. Every draw comes from the ``numpy.random.Generator`` passed in, in this fixed order. Templates are
 processed in file order (descriptive, counterfactual, cause, enable, prevent; never re-sorted by counts); for
@@ -34,7 +34,7 @@ whole program instead (the tests check both give the same choices). Compiled pre
 
 Deviations from the original, and why:
 
-* answer rejection (§4.7) is not reproduced: with fresh counters in every real use it never rejects anything;
+* answer rejection is not reproduced: with fresh counters in every real use it never rejects anything;
 * a complete program whose answer is INVALID is skipped and the search goes on. In the original only
   ``unique`` produces ``'__INVALID__'``; ``filter_first``/``filter_last`` on an empty list and ``event_partner``
   on a foreign event raise and abort the whole video, whereas the DSL returns INVALID. No CRAFT template reaches
@@ -68,7 +68,7 @@ __all__ = ["generate_questions", "instantiate_dfs", "perturbation_filter", "rend
 
 _STAR = re.compile(r"\*(.+?)\*")
 
-#: Side-input node type -> (the evaluator's module function, vocabulary enumerated by the DFS), §4.5.
+#: Side-input node type -> (the evaluator's module function, vocabulary enumerated by the DFS).
 _SIDE_INPUT_MODULES: dict[str, tuple[Callable[[Simulation, ObjectSet, str], ObjectSet], tuple[str, ...]]] = {
     "filter_size": (semantics.filter_size, SIZES),
     "filter_color": (semantics.filter_color, COLORS),
@@ -80,7 +80,7 @@ _SIDE_INPUT_MODULES: dict[str, tuple[Callable[[Simulation, ObjectSet, str], Obje
 
 
 def star_paraphrases(texts: Sequence[str], rng: np.random.Generator) -> list[str]:
-    """§4.3: in each paraphrase, every distinct ``*word*`` (sorted) gets one synonym for all its occurrences."""
+    """in each paraphrase, every distinct ``*word*`` (sorted) gets one synonym for all its occurrences."""
     out = []
     for text in texts:
         for word in sorted(set(_STAR.findall(text))):
@@ -91,7 +91,7 @@ def star_paraphrases(texts: Sequence[str], rng: np.random.Generator) -> list[str
 
 
 def render_text(texts: Sequence[str], params: Mapping[str, str], rng: np.random.Generator) -> str:
-    """§4.8: choose a (star-substituted) paraphrase, bind the placeholders with value synonyms, collapse spaces."""
+    """choose a (star-substituted) paraphrase, bind the placeholders with value synonyms, collapse spaces."""
     text = texts[int(rng.integers(len(texts)))]
     for placeholder, value in params.items():
         alternatives = SYNONYMS.get(value)
@@ -184,10 +184,10 @@ class _Search:
 def instantiate_dfs(
     template: Template, sim: Simulation, rng: np.random.Generator, max_instances: int = 1, fast: bool = True
 ) -> list[tuple[dict[str, str], Program, Any]]:
-    """§4.4: the first ``max_instances`` complete valid instantiations in DFS order, as (params, program, answer).
+    """the first ``max_instances`` complete valid instantiations in DFS order, as (params, program, answer).
 
     ``params`` is in binding order (``<Z>, <C>, <S>, <Z2>, ...``). Empty when the template has no valid
-    instantiation on ``sim`` (§3.9).
+    instantiation on ``sim``.
     """
     found: list[tuple[dict[str, str], Program, Any]] = []
     if max_instances <= 0:
@@ -222,7 +222,7 @@ def generate_questions(
     template_ids: Sequence[str] | None = None,
     instances_per_template: int = 1,
 ) -> list[dict[str, Any]]:
-    """The CRAFT questions of one video, in the record format of §4.9 (plus ``template_id``).
+    """The CRAFT questions of one video, in the published record format (plus ``template_id``).
 
     One question per template that can be instantiated (at most ``instances_per_template``), templates in file
     order (``template_ids`` restricts them; default: all 67, the dropped ones included — dropping is a pipeline
@@ -253,7 +253,7 @@ class Perturbable(Protocol):
 
 
 def _answer_on(program: Program, sim: Simulation) -> Any:
-    """The answer on a perturbed run, or None when it is INVALID or a counterfactual is unavailable (§4.11)."""
+    """The answer on a perturbed run, or None when it is INVALID or a counterfactual is unavailable."""
     try:
         answer = program.run(sim)
     except CounterfactualUnavailable:
@@ -273,7 +273,7 @@ def perturbation_filter(
     For each perturbation one seed ``int(rng.integers(2**31 - 1))`` is drawn (all seeds first, in order) and
     ``sim.perturbed(seed, amount)`` re-simulates the whole scene, factual run included; its counterfactuals are
     clean and not perturbed again. Each saved program is re-run on it; a question is kept when
-    ``str(new answer) == str(saved answer)`` in all perturbations (§6.4 step 7; INVALID or an unavailable
+    ``str(new answer) == str(saved answer)`` in all perturbations (INVALID or an unavailable
     counterfactual counts as a change). Questions already dropped are not re-checked (the result is the same).
 
     Returns the kept records (unchanged, ``question_index`` included) and the stats: ``{template_id: number of

@@ -1,8 +1,8 @@
 """The dataset-level stages of generation, as pure functions over plain records (each testable alone).
 
-:func:`post_process` (spec §6.5), :func:`balance` (§6.6, seeded; groups are (scene, template), so a scene's
-questions are balanced alone), :func:`hard_split` / :func:`random_split` (§6.7) and :func:`dataset_videos`
-(``dataset.json``, §6.8). :mod:`craft_dsl.dataset.instance` applies the post-process per video in the workers;
+:func:`post_process`, :func:`balance` (seeded; groups are (scene, template), so a scene's
+questions are balanced alone), :func:`hard_split` / :func:`random_split` and :func:`dataset_videos`
+(``dataset.json``). :mod:`craft_dsl.dataset.instance` applies the post-process per video in the workers;
 :mod:`craft_dsl.dataset.merge` balances one scene at a time and splits at the end.
 """
 
@@ -18,7 +18,7 @@ from ..templates import DROPPED, templates
 from ..verify.records import template_id_of, video_record
 from .layout import DEFAULT_VIDEO_FORMAT, video_relpath
 
-#: Fixed "hard" split of the 20 scene ids (spec §6.7, computed by the original with seed 10435).
+#: Fixed "hard" split of the 20 scene ids (computed by the original with seed 10435).
 HARD_SPLIT: dict[str, frozenset[int]] = {
     "train": frozenset({1, 2, 3, 4, 5, 6, 7, 9, 10, 15, 19, 20}),
     "validation": frozenset({8, 12, 14, 16}),
@@ -55,7 +55,7 @@ def random_parts(videos: Iterable[int], seed: int) -> dict[int, str]:
     return part_of
 
 
-# -- post-process (§6.5) ------------------------------------------------------------------------------------
+# -- post-process ------------------------------------------------------------------------------------
 
 _PREVENT_FIXES = ("is prevented by", "is kept by", "is held by", "is blocked by")
 
@@ -69,7 +69,7 @@ def _is_shape_answer(answer: Any) -> bool:
 def post_process(
     records: Iterable[Mapping[str, Any]], dynamic_shape_counts: Mapping[int, int]
 ) -> tuple[list[dict[str, Any]], Counter[str]]:
-    """The pre-balancing post-process (§6.5) over records of §4.9 (raw answers).
+    """The pre-balancing post-process over question records (raw answers).
 
     Drops Shape questions of videos whose dynamic objects have <= 1 distinct shape (``dynamic_shape_counts``:
     video index -> number of distinct dynamic shapes), questions mentioning "hexagon", and the 19 basket
@@ -100,11 +100,11 @@ def post_process(
     return kept, dropped
 
 
-# -- balancing (§6.6) ---------------------------------------------------------------------------------------
+# -- balancing ---------------------------------------------------------------------------------------
 
 
 def answer_label(answer: Any) -> str:
-    """The string a balancing group counts (``str`` of the raw answer, capitalised as after §6.6 step 1)."""
+    """The string a balancing group counts (``str`` of the raw answer, capitalised as the original does first)."""
     return str(answer).capitalize()
 
 
@@ -119,7 +119,7 @@ def _template_number(tid: str) -> int:
 def balance(
     records: Sequence[Mapping[str, Any]], scene_of: Mapping[int, int], seed: int
 ) -> tuple[list[dict[str, Any]], Counter[str]]:
-    """Answer balancing within each (scene, template) group over the merged dataset (§6.6), seeded.
+    """Answer balancing within each (scene, template) group over the merged dataset, seeded.
 
     Per group: <= 1 distinct answer -> the group is dropped ("purged"); answers 3..10 are set aside and kept;
     if the rest has >= 2 distinct answers every answer is undersampled, without replacement, to the count of
@@ -155,7 +155,7 @@ def balance(
     return [dict(records[i]) for i in range(len(records)) if i in keep], counts
 
 
-# -- splits (§6.7) ------------------------------------------------------------------------------------------
+# -- splits ------------------------------------------------------------------------------------------
 
 
 def _keys(records: Iterable[Mapping[str, Any]]) -> list[dict[str, int]]:
@@ -181,7 +181,7 @@ def random_split(records: Sequence[Mapping[str, Any]], seed: int) -> dict[str, l
 def dataset_videos(
     records: Sequence[Mapping[str, Any]], scene_of: Mapping[int, int], video_format: str = DEFAULT_VIDEO_FORMAT
 ) -> list[dict[str, Any]]:
-    """The ``dataset.json`` list (§6.8): one element per video with questions, ascending, raw answers."""
+    """The ``dataset.json`` list: one element per video with questions, ascending, raw answers."""
     by_video: dict[int, list[dict[str, Any]]] = defaultdict(list)
     for rec in records:
         by_video[int(rec["video_index"])].append(dict(rec))
