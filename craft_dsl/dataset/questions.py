@@ -80,7 +80,7 @@ _SIDE_INPUT_MODULES: dict[str, tuple[Callable[[Simulation, ObjectSet, str], Obje
 
 
 def star_paraphrases(texts: Sequence[str], rng: np.random.Generator) -> list[str]:
-    """in each paraphrase, every distinct ``*word*`` (sorted) gets one synonym for all its occurrences."""
+    """In each paraphrase, every distinct ``*word*`` (sorted) gets one synonym for all its occurrences."""
     out = []
     for text in texts:
         for word in sorted(set(_STAR.findall(text))):
@@ -91,7 +91,7 @@ def star_paraphrases(texts: Sequence[str], rng: np.random.Generator) -> list[str
 
 
 def render_text(texts: Sequence[str], params: Mapping[str, str], rng: np.random.Generator) -> str:
-    """choose a (star-substituted) paraphrase, bind the placeholders with value synonyms, collapse spaces."""
+    """Choose a (star-substituted) paraphrase, bind the placeholders with value synonyms, collapse spaces."""
     text = texts[int(rng.integers(len(texts)))]
     for placeholder, value in params.items():
         alternatives = SYNONYMS.get(value)
@@ -184,7 +184,7 @@ class _Search:
 def instantiate_dfs(
     template: Template, sim: Simulation, rng: np.random.Generator, max_instances: int = 1, fast: bool = True
 ) -> list[tuple[dict[str, str], Program, Any]]:
-    """the first ``max_instances`` complete valid instantiations in DFS order, as (params, program, answer).
+    """The first ``max_instances`` complete valid instantiations in DFS order, as (params, program, answer).
 
     ``params`` is in binding order (``<Z>, <C>, <S>, <Z2>, ...``). Empty when the template has no valid
     instantiation on ``sim``.
