@@ -7,7 +7,7 @@ of our time to the baseline's (target <= 1.0: types cost nothing at run time).
 
     python benchmarks/dsl_speed.py [--sims N] [--repeat R]
 
-Simulations: the Appendix C scene E1 plus N live simulations (scenes 1..20 round-robin, seed 0..),
+Simulations: the worked example scene E1 plus N live simulations (scenes 1..20 round-robin, seed 0..),
 written to JSON with variations and loaded back, so both evaluators read the same recorded files.
 """
 

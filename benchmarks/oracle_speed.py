@@ -16,7 +16,7 @@ Targets (issue 9): fresh node lists >= 2x the original, cached structures >= 5x,
     python benchmarks/oracle_speed.py [--sims N] [--repeat R]
 
 Workload: every template with a valid instance on each of N live simulations (scenes 1..20 round-robin)
-plus the Appendix C scene E1, all written to JSON with their variations and loaded back, so that both engines
+plus the worked example scene E1, all written to JSON with their variations and loaded back, so that both engines
 read the same recorded files.
 """
 

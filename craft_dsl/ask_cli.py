@@ -9,7 +9,9 @@ from typing import Any
 
 from .program import to_json
 from .question_parsing import match_question
+from .ranges import parse_scene
 from .types import INVALID
+from .vocabulary import DEFAULT_ENGINE, ENGINES
 
 
 def answer_in_words(answer: Any) -> str:
@@ -50,9 +52,9 @@ def add_commands(sub: Any) -> None:
     )
     ask.add_argument("question", help='the question, e.g. "How many objects fall to the ground?"')
     ask.add_argument("--sim", help="recorded simulation JSON file (CRAFT format)")
-    ask.add_argument("--scene", type=int, help="or simulate this scene layout (1-20) live")
+    ask.add_argument("--scene", type=parse_scene, help="or simulate this scene layout (1-20 or a layout file) live")
     ask.add_argument("--seed", type=int, default=0, help="seed of the live simulation")
-    ask.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"),
+    ask.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES,
                      help="physics engine of the live simulation")
     ask.add_argument("--json", action="store_true",
                      help="print {question, template_id, paraphrase, params, program, answer} as JSON")

@@ -11,8 +11,7 @@ type, and where the problem is.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 from .errors import ProgramError, SideInputError, TypeCheckError, UnknownModuleError
 from .ir import Node, Value, canonical_order
@@ -81,8 +80,7 @@ def arity_error(spec: ModuleSpec, found: int, pos: Where) -> TypeCheckError:
     )
 
 
-@dataclass(frozen=True)
-class _Resolution:
+class _Resolution(NamedTuple):
     """How a call with given input types checks: the overload, its output type, inputs to wrap in Unique."""
 
     overload: int
@@ -303,6 +301,9 @@ def check_tree(tree: Tree) -> CheckedProgram:
         env[b.name] = (nid, builder.nodes[nid].type)
         bindings.append(Binding(b.name, expr, b.pos))
     root, body = _check_expr(builder, tree.body, env, sources)
+    if builder.nodes[root].module is None:
+        raise ProgramError("a program must call a module; a lone value is not a program (in every form)",
+                           **where(getattr(tree.body, "pos", None)))
     return builder.finish(root, sources, Tree(tuple(bindings), body), {k: t for k, (_, t) in env.items()})
 
 

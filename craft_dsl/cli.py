@@ -8,23 +8,23 @@ import json
 import os
 import sys
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 from .errors import CraftError
+from .files import read_json, read_text
 from .program import Program, format_value, to_json
+from .ranges import parse_scene
 from .registry import MODULES
+from .vocabulary import DEFAULT_ENGINE, ENGINES
 
 EXIT_USAGE = 2
+#: Program files and node lists larger than this are refused (a 5,000-binding program is about 200 KB).
+MAX_PROGRAM_BYTES = 64 << 20
 
 
 def _read_program(text: str) -> str:
     if text.startswith("@"):
-        path = Path(text[1:])
-        try:
-            return path.read_text(encoding="utf-8")
-        except OSError as err:
-            raise CraftError(f"cannot read program file {path}: {err.strerror}") from None
+        return read_text(text[1:], "program file", max_bytes=MAX_PROGRAM_BYTES)
     return text
 
 
@@ -40,12 +40,7 @@ def _params(pairs: Sequence[str]) -> dict[str, str]:
 
 def _load_program(args: argparse.Namespace) -> Program:
     if getattr(args, "nodes", None):
-        try:
-            data = json.loads(Path(args.nodes).read_text(encoding="utf-8"))
-        except OSError as err:
-            raise CraftError(f"cannot read node list {args.nodes}: {err.strerror}") from None
-        except json.JSONDecodeError as err:
-            raise CraftError(f"{args.nodes}: not valid JSON (line {err.lineno}, column {err.colno})") from None
+        data = read_json(args.nodes, "node list", max_bytes=MAX_PROGRAM_BYTES)
         if isinstance(data, dict):  # a question record or {"nodes": [...]}
             data = data.get("program", data.get("nodes", data))
         return Program.from_nodes(data, _params(args.param))
@@ -60,7 +55,7 @@ def _simulation(args: argparse.Namespace) -> Any:
     if args.sim:
         from .recorded import load_simulation
 
-        return load_simulation(args.sim)
+        return load_simulation(args.sim, strict=getattr(args, "strict", False))
     if args.scene is None:
         raise CraftError("give a simulation: --sim FILE (recorded) or --scene N [--seed S] (live physics)")
     from .physics import simulate
@@ -122,23 +117,33 @@ def cmd_modules(args: argparse.Namespace) -> int:
     return 0
 
 
+class _CommandParser(argparse.ArgumentParser):
+    """Every command's parser shows its defaults in --help."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        super().__init__(*args, **kwargs)
+
+
 def build_parser() -> argparse.ArgumentParser:
     from . import __version__
 
     parser = argparse.ArgumentParser(prog="craft-dsl", description="Typed DSL for CRAFT causal video QA.")
     parser.add_argument("--version", action="version", version=f"craft-dsl {__version__}")
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_CommandParser)
 
     run = sub.add_parser("run", help="run a program over a recorded simulation")
     run.add_argument("program", nargs="?", help="program text, or @file")
     run.add_argument("--sim", help="recorded simulation JSON file (CRAFT format)")
-    run.add_argument("--scene", type=int, help="or simulate this scene layout (1-20) live")
+    run.add_argument("--scene", type=parse_scene, help="or simulate this scene layout (1-20 or a layout file) live")
     run.add_argument("--seed", type=int, default=0, help="seed of the live simulation (default 0)")
-    run.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"),
+    run.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES,
                      help="physics engine of the live simulation (default pymunk)")
     run.add_argument("--nodes", help="read the program as a CLEVR/CRAFT node list from this JSON file")
     run.add_argument("--param", action="append", default=[], metavar="<Z>=small",
                      help="bind a template placeholder of a node list (repeatable)")
+    run.add_argument("--strict", action="store_true",
+                     help="also refuse a --sim file the original simulator could not have written (docs/recorded.md)")
     run.add_argument("--json", action="store_true", help="print JSON")
     run.add_argument("--trace", action="store_true", help="print every node's value")
     run.set_defaults(func=cmd_run)
@@ -154,7 +159,7 @@ def build_parser() -> argparse.ArgumentParser:
     mods.add_argument("--markdown", action="store_true", help="print a Markdown table")
     mods.set_defaults(func=cmd_modules)
 
-    for name in ("craft_dsl.demo", "craft_dsl.physics.cli", "craft_dsl.render.cli", "craft_dsl.verify_cli",
+    for name in ("craft_dsl.demo", "craft_dsl.physics.cli", "craft_dsl.render.cli", "craft_dsl.verify.cli",
                  "craft_dsl.dataset.cli", "craft_dsl.oracle.cli", "craft_dsl.ask_cli", "craft_dsl.dataset.hf_cli",
                  "craft_dsl.dataset.stats_cli", "craft_dsl.viewer.cli", "craft_dsl.perception.cli",
                  "craft_dsl.reader.cli"):
@@ -170,8 +175,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
     try:
+        args = parser.parse_args(argv)  # a CraftError from an option's reader (--scene) is bad input too
         result: Any = args.func(args)
     except CraftError as err:
         print(f"error: {err}", file=sys.stderr)
@@ -183,7 +188,24 @@ def main(argv: Sequence[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 0
+    except (OSError, UnicodeError, RecursionError, MemoryError) as err:
+        # Readers turn these into CraftError naming the file and the field; whatever still arrives here is named
+        # as well as it can be, never shown as a traceback.
+        print(f"error: {_describe_failure(err)}", file=sys.stderr)
+        return EXIT_USAGE
     return int(result or 0)
+
+
+def _describe_failure(err: BaseException) -> str:
+    """A one-line message for an error no reader turned into a CraftError."""
+    if isinstance(err, OSError):
+        name = f"{err.filename}: " if err.filename else ""
+        return f"{name}{err.strerror or err}"
+    if isinstance(err, UnicodeError):
+        return f"text that is not UTF-8: {err}"
+    if isinstance(err, RecursionError):
+        return "the input is nested too deeply to be processed"
+    return "out of memory: the input is too large to be processed in memory"
 
 
 if __name__ == "__main__":

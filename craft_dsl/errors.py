@@ -3,12 +3,40 @@
 from __future__ import annotations
 
 import copy
+import re
 from collections.abc import Sequence
 from typing import Any
 
+#: The longest message an error carries: one that quotes a 5,000-character token or a whole node is shortened.
+MAX_MESSAGE_LENGTH = 1500
+_QUOTED_LIMIT = 60
+_LONG_QUOTED = re.compile("'([^'\n]{80,})'|\"([^\"\n]{80,})\"")  # quoted values longer than _QUOTED_LIMIT + 20
+
+
+def shorten_message(message: str) -> str:
+    """``message`` with every long quoted value cut to its start (and its length), and the whole cut in the
+    middle if it is still longer than :data:`MAX_MESSAGE_LENGTH` (the start says what, the end what is allowed)."""
+    def cut(m: re.Match[str]) -> str:
+        quote = "'" if m.group(1) is not None else '"'
+        text = m.group(1) if m.group(1) is not None else m.group(2)
+        return f"{quote}{text[:_QUOTED_LIMIT]}...{quote} ({len(text):,} characters)"
+
+    if len(message) > _QUOTED_LIMIT + 20:
+        message = _LONG_QUOTED.sub(cut, message)
+    if len(message) > MAX_MESSAGE_LENGTH:
+        keep = MAX_MESSAGE_LENGTH // 2
+        message = f"{message[:keep]} ...({len(message) - 2 * keep:,} characters)... {message[-keep:]}"
+    return message
+
 
 class CraftError(Exception):
-    """Base class of every craft_dsl error."""
+    """Base class of every craft_dsl error. A message quoting a huge input is shortened (see
+    :func:`shorten_message`)."""
+
+    def __init__(self, *args: Any) -> None:
+        if args and isinstance(args[0], str):
+            args = (shorten_message(args[0]), *args[1:])
+        super().__init__(*args)
 
 
 class ProgramError(CraftError):
@@ -34,7 +62,7 @@ class ProgramError(CraftError):
         new = copy.copy(self)
         new.line = new.column = None
         new.location, new.index = location, index
-        new.args = (f"{location}: {self.message}",)
+        new.args = (shorten_message(f"{location}: {self.message}"),)
         return new
 
 
@@ -75,8 +103,56 @@ class TokenError(ProgramError):
     """A program token sequence is malformed (unknown token, too few or too many tokens)."""
 
 
-class SimulationFileError(CraftError):
+class MissingExtraError(CraftError, ModuleNotFoundError):
+    """A feature needs an optional extra that is not installed; the message names the ``pip install`` to run."""
+
+    def __init__(self, feature: str, extra: str, missing: str | None = None) -> None:
+        super().__init__(
+            f"{feature} needs {missing or extra}, which is not installed: pip install 'craft-dsl[{extra}]'")
+        self.name = missing
+        self.extra = extra
+
+
+class InputFileError(CraftError):
+    """An input file cannot be read as asked, or its content is malformed.
+
+    Raised for a missing file, a directory, an unreadable file, text that is not UTF-8, invalid JSON, JSON
+    nested too deeply, a key given twice in one object, or a number out of range (see docs/errors.md).
+    ``path`` is the file (None for data handed over in memory), ``line``/``column`` (1-based) locate the
+    problem in the file's text where known, ``field`` names the JSON field (``"variations_outputs.3"``).
+    The subclasses name the kind of file.
+    """
+
+    def __init__(self, message: str, *, path: str | None = None, line: int | None = None,
+                 column: int | None = None, field: str | None = None) -> None:
+        super().__init__(message)
+        self.path = path
+        self.line = line
+        self.column = column
+        self.field = field
+
+
+class SimulationFileError(InputFileError):
     """A recorded simulation file is malformed; the message names the defect."""
+
+
+class SceneFileError(InputFileError):
+    """A scene layout file is malformed or cannot be sampled; the message names file, field and what is
+    allowed."""
+
+
+class ExpressionError(CraftError, ValueError):
+    """An expression string of a scene layout is not in the safe arithmetic subset, or cannot be evaluated."""
+
+
+class DatasetFileError(InputFileError):
+    """A dataset file (``dataset.json``, ``dataset_minimal.json``, ``annotations.json``, a split file) is
+    malformed; the message names file, record and field."""
+
+
+class PredictionsFileError(InputFileError):
+    """A predictions file is malformed (a key given twice, an answer out of range...); the message names file,
+    record and field."""
 
 
 class CounterfactualUnavailable(CraftError):

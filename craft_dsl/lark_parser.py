@@ -16,6 +16,7 @@ from lark.exceptions import UnexpectedCharacters, UnexpectedEOF, UnexpectedInput
 from .errors import ParseError
 from .resources import data_dir
 from .syntax import Binding, Call, Expr, Literal, Ref, Tree
+from .types import integer_literal
 
 _QUOTES = '"\u201c\u201d'
 
@@ -45,7 +46,10 @@ class _ToSyntax(Transformer):
 
     def integer(self, t: LarkTree) -> Literal:
         (tok,) = cast(list[Any], t.children)
-        return Literal(int(tok), _pos(tok))
+        try:
+            return Literal(integer_literal(str(tok)), _pos(tok))
+        except ValueError as err:
+            raise ParseError(str(err), *_pos(tok)) from None
 
     def ref(self, t: LarkTree) -> Ref:
         (tok,) = cast(list[Any], t.children)

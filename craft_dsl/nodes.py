@@ -14,6 +14,7 @@ from typing import Any, NoReturn
 
 from .checker import CheckedProgram, ProgramBuilder, arity_error, resolve_module
 from .errors import NodeListError, ProgramError
+from .files import describe
 from .ir import Node, node_texts
 from .registry import NAMES, REGISTRY
 
@@ -38,7 +39,7 @@ def _side_values(node: Mapping[str, Any], k: int, params: Mapping[str, str] | No
                 )
             v = params[v]
         if not isinstance(v, (str, int)) or isinstance(v, bool):
-            raise NodeListError(f"side input {v!r} must be a string", location=f"node {k}", index=k)
+            raise NodeListError(f"side input {describe(v)} must be a string", location=f"node {k}", index=k)
         values.append(v)
     return values
 
@@ -57,7 +58,7 @@ def check_nodes(nodes: Sequence[Mapping[str, Any]], params: Mapping[str, str] | 
             inputs = node.get("inputs", _EMPTY)
             spec = spec_of(name)
         except (TypeError, KeyError, AttributeError):
-            raise NodeListError(f"must be an object with a 'type' field, found {node!r}",
+            raise NodeListError(f"must be an object with a 'type' field, found {describe(node)}",
                                 location=f"node {k}", index=k) from None
         if spec is None:
             _unknown_module(name, k)
@@ -98,7 +99,7 @@ def _inverse(order: tuple[int, ...]) -> tuple[int, ...]:
 
 def _unknown_module(name: Any, k: int) -> NoReturn:
     if not isinstance(name, str):
-        raise NodeListError(f"'type' must be a string, found {name!r}", location=f"node {k}", index=k)
+        raise NodeListError(f"'type' must be a string, found {describe(name)}", location=f"node {k}", index=k)
     try:
         resolve_module(name, ("node", k))
     except ProgramError as err:
@@ -108,10 +109,10 @@ def _unknown_module(name: Any, k: int) -> NoReturn:
 
 def _bad_inputs(name: Any, inputs: Any, k: int) -> NoReturn:
     if not isinstance(inputs, (list, tuple)) or not all(type(i) is int for i in inputs):
-        raise NodeListError(f"{name}: 'inputs' must be a list of node indexes, found {inputs!r}",
+        raise NodeListError(f"{name}: 'inputs' must be a list of node indexes, found {describe(inputs)}",
                             location=f"node {k}", index=k)
     bad = next(i for i in inputs if not 0 <= i < k)
-    raise NodeListError(f"{name}: input {bad} does not name an earlier node (allowed 0..{k - 1})",
+    raise NodeListError(f"{name}: input {describe(bad)} does not name an earlier node (allowed 0..{k - 1})",
                         location=f"node {k}", index=k)
 
 

@@ -9,6 +9,7 @@ from .errors import ParseError, ProgramError
 from .ir import Value
 from .registry import NAMES, ModuleSpec
 from .syntax import Expr, Tree
+from .types import integer_literal
 
 
 def parse_tree(text: str) -> Tree:
@@ -75,7 +76,7 @@ def fast_check(text: str) -> CheckedProgram | None:
                 node, value = None, tok[1:-1]
                 i += 1
             elif first in _INT_START and tok != "-":
-                node, value = None, int(tok)
+                node, value = None, integer_literal(tok)
                 i += 1
             else:
                 return None
@@ -99,7 +100,7 @@ def fast_check(text: str) -> CheckedProgram | None:
                 if tok != ")":
                     return None
                 node = _close(builder, frames.pop(), sources)
-    except (IndexError, ProgramError):
+    except (IndexError, ValueError, ProgramError):
         return None
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import ast
 import functools
-import json
 import math
 import operator
 import re
@@ -33,7 +32,8 @@ from pydantic import (
     model_validator,
 )
 
-from .errors import CraftError
+from .errors import CraftError, ExpressionError, SceneFileError
+from .files import describe, key_text, read_json
 from .vocabulary import COLORS, SHAPES, SIZES
 from .world import BodySpec, WorldSpec, assign_uids, make_dynamic, make_static
 
@@ -66,15 +66,6 @@ STATIC_ELEMENT_SHAPES: tuple[str, ...] = ("platform", "ramp", "static_ball")
 _SCENE_FILE = re.compile(r"^scene_(\d+)\.json$")
 
 
-class SceneFileError(CraftError):
-    """A scene layout file is malformed or cannot be sampled; the message names file, field and what is
-    allowed."""
-
-
-class ExpressionError(CraftError, ValueError):
-    """An expression string is not in the safe arithmetic subset, or cannot be evaluated."""
-
-
 # -- safe expressions --------------------------------------------------------------------------------
 
 _CONSTANTS: dict[str, float] = {"pi": math.pi}
@@ -90,6 +81,8 @@ _BINOPS: dict[type[ast.operator], Callable[[float, float], float]] = {
 _UNARY: dict[type[ast.unaryop], Callable[[float], float]] = {ast.USub: operator.neg, ast.UAdd: operator.pos}
 _ALLOWED_TEXT = "numbers, variable names, pi, + - * / **, unary -, sin(), cos(), sqrt()"
 _MAX_EXPRESSION_LENGTH = 200
+#: Scene layout files larger than this are refused (the built-in ones are about 2 KB).
+MAX_SCENE_FILE_BYTES = 1 << 20
 
 
 @dataclass(frozen=True)
@@ -123,8 +116,12 @@ def _eval_node(node: ast.expr, variables: Mapping[str, float], source: str) -> f
             raise ExpressionError(f"unknown variable {node.id!r} in {source!r}; defined variables: {defined}")
         return float(variables[node.id])
     if isinstance(node, ast.BinOp):
-        return _BINOPS[type(node.op)](_eval_node(node.left, variables, source),
-                                      _eval_node(node.right, variables, source))
+        value = _BINOPS[type(node.op)](_eval_node(node.left, variables, source),
+                                       _eval_node(node.right, variables, source))
+        if isinstance(value, complex):  # a negative number to a fractional power
+            raise ExpressionError(f"{ast.unparse(node)!r} in {source!r} has no real value (a negative number to a "
+                                  "fractional power); allowed: expressions with a real value")
+        return value
     if isinstance(node, ast.UnaryOp):
         return _UNARY[type(node.op)](_eval_node(node.operand, variables, source))
     if isinstance(node, ast.Call) and isinstance(node.func, ast.Name):
@@ -222,15 +219,22 @@ def _is_number(raw: object) -> TypeGuard[int | float]:
     return isinstance(raw, (int, float)) and not isinstance(raw, bool)
 
 
+def _float(raw: int | float) -> float:
+    try:
+        return float(raw)
+    except OverflowError:  # an integer beyond the range of a float
+        raise ValueError(f"{describe(raw)} is out of range; allowed: finite numbers (at most about 1.8e308)") from None
+
+
 def _parse_scalar(raw: object) -> Const | Expr:
     if _is_number(raw):
-        value = float(raw)
+        value = _float(raw)
         if not math.isfinite(value):
             raise ValueError(f"{raw!r} is not a finite number")
         return Const(value)
     if isinstance(raw, str):
         return parse_expression(raw)
-    raise ValueError(f"expected a number or an expression string, got {raw!r}")
+    raise ValueError(f"expected a number or an expression string, got {describe(raw)}")
 
 
 def _constant_value(q: Const | Expr) -> float | None:
@@ -249,7 +253,7 @@ def _parse_quantity(raw: object) -> Quantity:
         if set(raw) == {"uniform"}:
             bounds = raw["uniform"]
             if not isinstance(bounds, list) or len(bounds) != 2:
-                raise ValueError(f'"uniform" needs a list [min, max] of two values, got {bounds!r}')
+                raise ValueError(f'"uniform" needs a list [min, max] of two values, got {describe(bounds)}')
             low, high = _parse_scalar(bounds[0]), _parse_scalar(bounds[1])
             lo, hi = _constant_value(low), _constant_value(high)
             if lo is not None and hi is not None and lo > hi:
@@ -259,10 +263,10 @@ def _parse_quantity(raw: object) -> Quantity:
         if set(raw) == {"choice"}:
             options = raw["choice"]
             if not isinstance(options, list) or not options or not all(_is_number(o) for o in options):
-                raise ValueError(f'"choice" needs a non-empty list of numbers, got {options!r}')
-            return Choice(tuple(float(o) for o in options))
+                raise ValueError(f'"choice" needs a non-empty list of numbers, got {describe(options)}')
+            return Choice(tuple(_float(o) for o in options))
         raise ValueError(f"unknown random draw with keys {sorted(raw)}; expected {_VALUE_FORMS}")
-    raise ValueError(f"expected {_VALUE_FORMS}; got {raw!r}")
+    raise ValueError(f"expected {_VALUE_FORMS}; got {describe(raw)}")
 
 
 def _quantity_to_raw(q: Quantity) -> float | str | dict[str, list[float | str]] | dict[str, list[float]]:
@@ -433,7 +437,7 @@ _SECTION_MODELS: dict[str, type[BaseModel]] = {"basket": BasketSpec, "static": S
 def _loc_text(loc: Sequence[int | str]) -> str:
     out = ""
     for part in loc:
-        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+        out += f"[{part}]" if isinstance(part, int) else (f".{key_text(part)}" if out else key_text(part))
     return out or "(top level)"
 
 
@@ -453,15 +457,6 @@ def _error_text(err: Mapping[str, Any]) -> str:
         return f"expected a pair [x, y] of two values, got {err.get('input')!r}"
     msg = str(err["msg"])
     return msg.removeprefix("Value error, ")
-
-
-def _reject_duplicate_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    out: dict[str, Any] = {}
-    for key, value in pairs:
-        if key in out:
-            raise SceneFileError(f"duplicate key {key!r} in one JSON object")
-        out[key] = value
-    return out
 
 
 def _check_references(layout: SceneLayout, where: str) -> None:
@@ -507,19 +502,8 @@ def _parse_layout(data: object, where: str, path: Path | None) -> SceneLayout:
 def load_layout_file(path: str | Path) -> SceneLayout:
     """Read and validate one layout file."""
     p = Path(path)
-    where = str(p)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise SceneFileError(f"{where}: cannot read scene file: {exc.strerror or exc}") from None
-    try:
-        data = json.loads(text, object_pairs_hook=_reject_duplicate_keys)
-    except json.JSONDecodeError as exc:
-        raise SceneFileError(f"{where}: line {exc.lineno}, column {exc.colno}: "
-                             f"invalid JSON: {exc.msg}") from None
-    except SceneFileError as exc:
-        raise SceneFileError(f"{where}: {exc}") from None
-    return _parse_layout(data, where, p)
+    data = read_json(p, "scene file", error=SceneFileError, max_bytes=MAX_SCENE_FILE_BYTES)
+    return _parse_layout(data, str(p), p)
 
 
 @functools.lru_cache(maxsize=64)

@@ -28,9 +28,9 @@ try:
     from hypothesis import strategies as st
     from hypothesis.errors import InvalidArgument
 except ImportError:  # pragma: no cover - exercised in a subprocess by tests/test_strategies.py
-    raise ImportError(
-        "craft_dsl.strategies needs hypothesis, which is not installed: pip install 'craft-dsl[strategies]'"
-    ) from None
+    from .errors import MissingExtraError
+
+    raise MissingExtraError("craft_dsl.strategies", "strategies", "hypothesis") from None
 
 import itertools
 from collections.abc import Collection, Iterable, Sequence

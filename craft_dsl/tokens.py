@@ -29,6 +29,7 @@ from .checker import VOCABULARY, CheckedProgram, ProgramBuilder, Where, arity_er
 from .errors import ProgramError, TokenError, TypeCheckError
 from .ir import Node, Value
 from .registry import MODULES, NAMES, REGISTRY, ModuleSpec
+from .types import integer_literal
 from .vocabulary import VALUE_ALIASES
 
 TokenOrder = Literal["prefix", "postfix"]
@@ -104,7 +105,10 @@ class _Token:
             self.spec = NAMES[self.name]
             self.fused = [v.strip() for v in fused.group(2).split(",")] if fused.group(2).strip() else []
         elif _INT.match(text):
-            self.value = int(text)
+            try:
+                self.value = integer_literal(text)
+            except ValueError as err:
+                raise TokenError(str(err), location=f"token {index}", index=index) from None
         elif _is_value(text):
             self.value = text
         else:

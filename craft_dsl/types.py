@@ -24,9 +24,28 @@ class DslType(str, Enum):
     def __str__(self) -> str:
         return self.value
 
+    # Enum's own __hash__ is a Python function; types are hashed in every checker lookup, and a str-valued
+    # member equals its string, so the string's hash is the consistent (and C-speed) one.
+    __hash__ = str.__hash__
+
 
 #: Types whose values are written as literals in a program ("Small", "Yellow", 3).
 SIDE_INPUT_TYPES = (DslType.COLOR, DslType.SHAPE, DslType.SIZE)
+
+#: Integer literals of a program are 64-bit signed integers.
+INTEGER_MIN, INTEGER_MAX = -(1 << 63), (1 << 63) - 1
+
+
+def integer_literal(text: str) -> int:
+    """The value of an integer literal (``-?[0-9]+``); ValueError naming the allowed range if it is outside
+    64 bits (checked on the text first, so that a literal of any length costs nothing to refuse)."""
+    digits = len(text) - text.startswith("-")
+    value = int(text) if digits <= 19 else None
+    if value is None or not INTEGER_MIN <= value <= INTEGER_MAX:
+        shown = text if len(text) <= 24 else f"{text[:20]}... ({digits:,} digits)"
+        raise ValueError(f"the integer {shown} is out of range; integers are between {INTEGER_MIN} and "
+                         f"{INTEGER_MAX}")
+    return value
 
 
 class _Invalid:

@@ -40,6 +40,10 @@ VALUE_ALIASES: dict[str, str] = {
     "grey": "gray",
 }
 
+#: Physics engines behind the simulator protocol (pybox2d is the optional extra ``box2d``).
+ENGINES: tuple[str, ...] = ("pymunk", "box2d")
+DEFAULT_ENGINE = "pymunk"
+
 # Event types -----------------------------------------------------------------------------------
 
 START = "Start"

@@ -4,7 +4,7 @@ Scene layouts (``scenes/*.json``) are sampled into a :class:`WorldSpec` with an 
 engines read a WorldSpec and nothing else, and the renderer draws its bodies. No engine is named here.
 
 Geometry is given in the body's local frame (metres); a body at ``position`` rotated by ``angle`` places
-it in the world. Catalogue facts follow the original simulator (spec ``original-simulator.md`` §1-2).
+it in the world. Catalogue facts (sizes, shapes, density, friction, restitution) follow the original CRAFT simulator.
 """
 
 from __future__ import annotations

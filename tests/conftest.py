@@ -1,4 +1,4 @@
-"""Shared fixtures: the Appendix C scene E1 and a compact builder for hand-made simulations.
+"""Shared fixtures: the worked example scene E1 and a compact builder for hand-made simulations.
 
 Compact descriptions used by :func:`make_sim`:
 
@@ -24,6 +24,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import HealthCheck, settings
 
 from craft_dsl import (
     CounterfactualUnavailable,
@@ -109,7 +110,7 @@ _E1_DATA: dict[str, Any] = json.loads(E1_PATH.read_text(encoding="utf-8"))
 
 @pytest.fixture(scope="session")
 def e1() -> Simulation:
-    """Scene E1 of the spec's Appendix C, loaded from tests/data/e1.json."""
+    """The worked example scene E1, loaded from tests/data/e1.json."""
     return load_simulation(E1_PATH)
 
 
@@ -121,7 +122,7 @@ def e1_dict() -> dict[str, Any]:
 
 @pytest.fixture(scope="session")
 def e1_expected() -> list[dict[str, Any]]:
-    """The 65 expected answers of Appendix C."""
+    """The 65 expected answers of the worked example (the original engine's)."""
     data: list[dict[str, Any]] = json.loads(E1_EXPECTED_PATH.read_text(encoding="utf-8"))
     return data
 
@@ -158,3 +159,12 @@ def users_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     out = tmp_path_factory.mktemp("users") / "craft6"
     generate_dataset(GenerationConfig.make(**USERS_DATASET), out)
     return out
+
+
+# -- hypothesis profiles ----------------------------------------------------------------------------------------
+# "ci" (the default): hypothesis's 100 examples per test, no deadline (the machines are shared). "long": the fuzz
+# tests for about 30 minutes on 2 cores: python -m pytest tests/ -k fuzz --hypothesis-profile=long
+settings.register_profile("ci", deadline=None)
+settings.register_profile("long", deadline=None, max_examples=10_000,
+                          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+settings.load_profile("ci")

@@ -115,8 +115,9 @@ def test_decoded_mpg_matches_the_rendered_frames(users_dataset: Path) -> None:
 
 
 def hashes(folder: Path) -> dict[str, str]:
+    """Every file's hash, the log (which holds times) left out."""
     return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.rglob("*")) if p.is_file()}
+            for p in sorted(folder.rglob("*")) if p.is_file() and p.name != P.LOG_FILE}
 
 
 def test_mp4_format_downsampled_videos_and_identical_bytes_for_any_workers(tmp_path: Path) -> None:
@@ -143,19 +144,35 @@ def test_resume_redoes_an_instance_with_missing_media(tmp_path: Path) -> None:
     config = P.GenerationConfig.make(size=1, scenes=(5,), steps=30, perturbations=0, balance=False, videos=True)
     P.generate_dataset(config, tmp_path)
     before = hashes(tmp_path)
-    assert P.instance_complete(tmp_path, 5, 0, True)
+    assert L.media_complete(tmp_path, 5, 0, "mpg")
     (tmp_path / "last_frames" / "sid_5" / "000000.png").unlink()
-    assert not P.instance_complete(tmp_path, 5, 0, True)
-    assert P.instance_complete(tmp_path, 5, 0, False)
-    assert P.generate_dataset(config, tmp_path)["resumed"] == 0
+    assert not L.media_complete(tmp_path, 5, 0, "mpg")
+    log = tmp_path / P.LOG_FILE
+    # the video's questions are done: only its media are made again (a media-only task), nothing else changes
+    assert P.generate_dataset(config, tmp_path)["resumed"] == 1
+    assert "1 already done, 1 tasks" in log.read_text().splitlines()[-2]
     assert hashes(tmp_path) == before
+
+
+def test_videos_added_later_with_force(tmp_path: Path) -> None:
+    config = P.GenerationConfig.make(size=1, scenes=(5,), steps=30, perturbations=0, balance=False)
+    P.generate_dataset(config, tmp_path)
+    before = hashes(tmp_path)
+    with_videos = P.GenerationConfig.make(**dict(config.model_dump(), videos=True))
+    with pytest.raises(CraftError, match="videos False here, True now"):
+        P.generate_dataset(with_videos, tmp_path)
+    P.generate_dataset(with_videos, tmp_path, force=True)  # only media settings differ: the media are added
+    after = hashes(tmp_path)
+    assert L.media_complete(tmp_path, 5, 0, "mpg")
+    assert {k: v for k, v in after.items() if k in before and k != "generation_config.json"} == \
+        {k: v for k, v in before.items() if k != "generation_config.json"}
 
 
 def test_folder_of_an_older_version_is_refused(tmp_path: Path) -> None:
     config = P.GenerationConfig.make(size=1, scenes=(5,), steps=30, perturbations=0, balance=False)
-    old = {k: v for k, v in config.content().items() if k != "video_format"}
+    old = {k: v for k, v in config.content().items() if k not in ("video_format", "balance")}
     (tmp_path / "generation_config.json").write_text(json.dumps(old))
-    with pytest.raises(CraftError, match="video_format None here, 'mpg' now"):
+    with pytest.raises(CraftError, match="format_version None here, 2 now; video_format None here, 'mpg' now"):
         P.generate_dataset(config, tmp_path)
     with pytest.raises(CraftError, match="downsampled frame rates are 1-60"):
         P.GenerationConfig.make(size=1, downsampled=(0,))

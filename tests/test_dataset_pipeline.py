@@ -13,10 +13,10 @@ import pytest
 
 from craft_dsl.cli import main as cli_main
 from craft_dsl.dataset import pipeline as P
+from craft_dsl.dataset.instance import InstanceResult, InstanceTask
 from craft_dsl.errors import CraftError
 from craft_dsl.templates import DROPPED, templates
 from craft_dsl.verify import (
-    Annotations,
     open_annotations,
     parse_dataset,
     parse_minimal,
@@ -77,7 +77,7 @@ def test_instance_seeds_depend_only_on_seed_and_id() -> None:
     assert a[1].generate_state(2).tolist() != a[2].generate_state(2).tolist()
 
 
-# -- post-process (§6.5) --------------------------------------------------------------------------------------
+# -- post-process --------------------------------------------------------------------------------------
 
 
 def test_post_process_rules() -> None:
@@ -102,7 +102,7 @@ def test_post_process_rules() -> None:
     assert not {P.template_id_of(r) for r in kept} & DROPPED
 
 
-# -- balancing (§6.6) -----------------------------------------------------------------------------------------
+# -- balancing -----------------------------------------------------------------------------------------
 
 
 def _scene_of(records: list[dict[str, Any]], scene: int = 1) -> dict[int, int]:
@@ -159,7 +159,7 @@ def test_balance_is_seeded_and_independent_of_other_groups() -> None:
     assert len(draws) > 1  # the seed matters
 
 
-# -- splits (§6.7) --------------------------------------------------------------------------------------------
+# -- splits --------------------------------------------------------------------------------------------
 
 
 def test_hard_split_is_the_fixed_scene_split() -> None:
@@ -203,20 +203,6 @@ def test_writers_are_read_by_verify(tmp_path: Path) -> None:
     assert {q.answer for q in minimal} == {"2", "True", "Red"}
     split = P.random_split(records, seed=0)
     assert parse_split(json.loads(json.dumps(split)), "train") == {(1, 4), (3, 0), (3, 1)}
-    # annotations are streamed entry by entry into valid JSON, read back by the verifier's index
-    sources = []
-    for key, value in (("000001", {"a": [1, 2.5]}), ("000003", {"b": "x"})):
-        path = tmp_path / f"{key}.json"
-        path.write_text(json.dumps(value, indent=2))
-        sources.append((key, path))
-    target = tmp_path / "annotations.json"
-    assert P.write_annotations(target, sources) == 2
-    assert json.loads(target.read_text()) == {"000001": {"a": [1, 2.5]}, "000003": {"b": "x"}}
-    ann = Annotations.open(target)
-    assert ann.ids() == ["000001", "000003"] and ann.raw("000003") == {"b": "x"}
-    assert P.write_annotations(tmp_path / "empty.json", []) == 0
-    assert json.loads((tmp_path / "empty.json").read_text()) == {}
-    assert not list(tmp_path.glob(".*tmp*"))
 
 
 # -- end to end (needs part A, craft_dsl.dataset.questions) ----------------------------------------------------
@@ -225,8 +211,9 @@ SMALL = {"size": 4, "seed": 0, "scenes": (1, 2), "steps": 300, "perturbations": 
 
 
 def hashes(folder: Path) -> dict[str, str]:
+    """Every file's hash, the log (which holds times) left out."""
     return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(folder.rglob("*")) if p.is_file()}
+            for p in sorted(folder.rglob("*")) if p.is_file() and p.name != P.LOG_FILE}
 
 
 @pytest.fixture(scope="module")
@@ -243,10 +230,17 @@ def test_end_to_end_files_and_verify(reference: tuple[Path, dict[str, Any]]) -> 
                  "annotations.json", "videos_with_no_questions.json", "generation_report.json",
                  "imbalanced_dataset.json", "balanced_dataset.json"):
         assert (out / name).is_file(), name
-    for i, scene in ((0, 1), (1, 1), (2, 2), (3, 2)):
-        assert (out / "intermediates" / f"sid_{scene}" / f"{i:06d}.json").is_file()
-        assert (out / "questions" / f"qa_{i:06d}.json").is_file()
     questions = read_dataset(out / "dataset.json")
+    with_questions = {q.video_index for q in questions}
+    for i, scene in ((0, 1), (1, 1), (2, 2), (3, 2)):
+        # every simulation is stored once: in annotations.json if the video has questions, else in intermediates/
+        assert (out / "intermediates" / f"sid_{scene}" / f"{i:06d}.json").is_file() == (i not in with_questions)
+        qa = json.loads((out / "questions" / f"qa_{i:06d}.json").read_text())
+        assert set(qa) == {"info", "stats"} and qa["stats"]["scene"] == scene
+    assert set(json.loads((out / "annotations.json").read_text())) == {f"{i:06d}" for i in with_questions}
+    assert json.loads((out / "videos_with_no_questions.json").read_text()) == sorted({0, 1, 2, 3} - with_questions)
+    assert not (out / ".generate").exists() and not [p for p in out.rglob("*") if ".tmp" in p.name]
+    assert "done: 4 videos computed" in (out / P.LOG_FILE).read_text()
     minimal = read_minimal(out / "dataset_minimal.json")
     assert questions and [q.key for q in questions] == [q.key for q in minimal]
     assert not {q.template_id for q in questions} & DROPPED
@@ -276,31 +270,41 @@ def test_workers_give_byte_identical_output(reference: tuple[Path, dict[str, Any
 
 def test_resume_after_interruption(reference: tuple[Path, dict[str, Any]], tmp_path: Path,
                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    from craft_dsl.dataset import executors
+
     out, _ = reference
-    real = P.run_instance
+    real = executors.run_instance
     calls: list[int] = []
     crash = [2]
 
-    def failing(task: P.InstanceTask) -> int:
+    def failing(task: InstanceTask) -> InstanceResult:
         calls.append(task.instance_id)
         if task.instance_id in crash:
             raise RuntimeError("simulated crash")
         return real(task)
 
-    monkeypatch.setattr(P, "run_instance", failing)
+    monkeypatch.setattr(executors, "run_instance", failing)
     config = P.GenerationConfig.make(**SMALL)
     with pytest.raises(CraftError, match=r"1 of 4 instances failed \(000002: RuntimeError: simulated crash\)"):
         P.generate_dataset(config, tmp_path)
     assert calls == [0, 1, 2, 3]
-    assert not (tmp_path / "questions" / "qa_000002.json").exists()
+    # scene 1 (videos 0, 1) is merged; video 3's shard waits for video 2
+    assert (tmp_path / "questions" / "qa_000001.json").is_file()
+    assert not (tmp_path / "questions" / "qa_000003.json").exists()
+    assert (tmp_path / ".generate" / "shards" / "000003.shard").is_file()
     assert not (tmp_path / "dataset.json").exists()
     assert not [p for p in tmp_path.rglob("*") if ".tmp" in p.name]  # no half-written file anywhere
-    # a truncated file (as a crash of a non-atomic writer would leave) is not taken as done
-    (tmp_path / "questions" / "qa_000001.json").write_text('{"info": {"video_index": 1}, "questions": [')
+    # bytes a killed merge appended after its last commit are dropped (the growing files go back to the journal)
+    for partial in (tmp_path / ".generate").glob("*.partial"):
+        with partial.open("a") as fh:
+            fh.write(', {"half": "written')
+    # a truncated shard (as a crash of a non-atomic writer would leave) is not taken as done
+    shard = tmp_path / ".generate" / "shards" / "000003.shard"
+    shard.write_bytes(shard.read_bytes()[:100])
     calls.clear()
     crash.clear()
     report = P.generate_dataset(config, tmp_path)
-    assert sorted(calls) == [1, 2] and report["resumed"] == 2
+    assert sorted(calls) == [2, 3] and report["resumed"] == 2
     assert hashes(tmp_path) == hashes(out)
     calls.clear()
     P.generate_dataset(config, tmp_path)
@@ -311,17 +315,23 @@ def test_other_configuration_in_folder_is_refused(reference: tuple[Path, dict[st
     out, _ = reference
     with pytest.raises(CraftError, match="seed 0 here, 1 now"):
         P.generate_dataset(P.GenerationConfig.make(**dict(SMALL, seed=1)), out)
+    with pytest.raises(CraftError, match=r"balance True here, False now; videos False here, True now.*--force"):
+        P.generate_dataset(P.GenerationConfig.make(**dict(SMALL, balance=False, videos=True)), out)
 
 
 def test_cli_generate(reference: tuple[Path, dict[str, Any]], capsys: pytest.CaptureFixture[str]) -> None:
     out, _ = reference
     before = hashes(out)
+    # temporary files a killed run leaves (atomic writes interrupted) are removed by the next run
+    (out / ".dataset.k3j2.tmp.json").write_text("[")
+    (out / "questions" / ".qa_000001.x8.tmp.json").write_text("{")
     argv = ["generate", "--size", "4", "--seed", "0", "--scenes", "1-2", "--steps", "300", "--perturbations", "1",
             "--out", str(out), "--workers", "2"]
     assert cli_main(argv) == 0  # everything already done: resumes, rewrites the same bytes
     text = capsys.readouterr()
     assert "4 videos" in text.out and "craft-dsl verify --dataset" in text.out and "resuming" in text.err
     assert hashes(out) == before
+    assert "removed 2 temporary files of an interrupted run" in (out / P.LOG_FILE).read_text()
     assert cli_main(["generate", "--size", "0", "--out", str(out)]) == 2
     assert cli_main(["generate", "--size", "4", "--scenes", "1,x", "--out", str(out)]) == 2
     assert "error:" in capsys.readouterr().err

@@ -25,7 +25,7 @@ RECORD_KEYS = [
     "question_family_index", "question_index", "template_id",
 ]
 
-#: Three dynamic objects that all enter the basket (5): one large, two small (spec §4.4's example).
+#: Three dynamic objects that all enter the basket (5): one large, two small (the original's documented example).
 THREE_ENTER = [
     (6, "ground"), (5, "basket"),
     (3, "large red cube"), (2, "small blue circle"), (1, "small green triangle"),
@@ -125,7 +125,7 @@ def test_fast_pruning_matches_evaluating_every_unique_prefix(live: LiveSimulatio
 
 
 def test_selection_is_hierarchical(sim_builder: Callable[..., Simulation]) -> None:
-    # §4.4: sizes first, so the lone large object is chosen about half of the time, each small one a quarter.
+    # sizes first, so the lone large object is chosen about half of the time, each small one a quarter.
     sim = sim_builder(THREE_ENTER, THREE_ENTER_EVENTS)
     template = templates()["descriptive_16"]
     picks: Counter[str] = Counter()
@@ -159,7 +159,7 @@ def test_search_backtracks_over_a_when_no_b_exists(basic_sim: Simulation) -> Non
 def test_templates_that_cannot_be_instantiated_yield_nothing(
     basic_sim: Simulation, sim_builder: Callable[..., Simulation]
 ) -> None:
-    # §3.9: descriptive_38 needs two objects entering the basket; basic_sim has one.
+    # descriptive_38 needs two objects entering the basket; basic_sim has one.
     produced = {q["template_id"] for q in _gen(basic_sim, 0)}
     assert "descriptive_38" not in produced and "descriptive_16" in produced
     assert not instantiate_dfs(templates()["descriptive_38"], basic_sim, np.random.default_rng(0))

@@ -8,12 +8,12 @@ import sys
 import pytest
 from test_physics_micro import BASKET_AT, world
 
+from craft_dsl.analysis.engines import CATEGORIES, compare_engines, format_comparison, merge_stats, same_answer
+from craft_dsl.analysis.scene_stats import scene_stats
 from craft_dsl.cli import main
 from craft_dsl.physics import get_engine, simulate
 from craft_dsl.physics.box2d_engine import Box2DEngine
-from craft_dsl.physics.compare import CATEGORIES, compare_engines, format_comparison, merge_stats, same_answer
 from craft_dsl.physics.recording import FrameIntervalRecorder as _IntervalRecorder
-from craft_dsl.physics.stats import scene_stats
 from craft_dsl.templates import templates
 from craft_dsl.types import INVALID
 from craft_dsl.world import make_dynamic

@@ -18,7 +18,7 @@ from craft_dsl import (
 )
 from tests.conftest import make_sim
 
-# -- the programs of the paper's appendix, exactly as printed (spec paper-programs.md) ----------------------
+# -- the programs of the paper's appendix, exactly as printed  ----------------------
 
 FALL_TO_GROUND = """\
 Count (

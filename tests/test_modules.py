@@ -1,8 +1,8 @@
 """Unit tests of every functional module of craft_dsl.registry.MODULES.
 
-Values are checked on scene E1 (spec Appendix C) and on hand-made simulations built with
-``conftest.make_sim``. Every module of the registry must appear in at least one program written in this
-file (see ``test_every_registered_module_is_exercised``).
+Values are checked on scene E1 (the worked example with the original engine's answers) and on hand-made
+simulations built with ``conftest.make_sim``. Every module of the registry must appear in at least one
+program written in this file (see ``test_every_registered_module_is_exercised``).
 
 E1 in brief: static 8 wall_l, 7 wall_r, 6 ground, 5 basket, 4 platform; dynamic 3 large red cube (moving at
 start), 2 small blue circle, 1 small green triangle, 0 large yellow circle (moving at start). Events (file
@@ -602,7 +602,7 @@ def test_every_original_name_is_an_alias(e1: Simulation, alias: str, aliased: st
     assert p.run(e1) == q.run(e1)
 
 
-# The original engine's snake_case names (spec original-question-engine.md §1.2), mapped to the paper's.
+# The original engine's snake_case names , mapped to the paper's.
 ORIGINAL_NAMES = {
     "start_scene": "SceneAtStart", "end_scene": "SceneAtEnd", "start_scene_step": "StartSceneStep",
     "end_scene_step": "EndSceneStep", "filter_color": "FilterColor", "filter_shape": "FilterShape",

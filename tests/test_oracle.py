@@ -175,7 +175,16 @@ def test_distribution_scores() -> None:
     right, ll, brier = score_distribution({"true": 0.8, "false": 0.2}, True)
     assert right and ll == pytest.approx(math.log(0.8)) and brier == pytest.approx(0.04 + 0.04)
     wrong, ll, brier = score_distribution({"red": 1.0}, "blue")
-    assert not wrong and ll == pytest.approx(math.log(1e-12)) and brier == pytest.approx(2.0)
+    assert not wrong and ll == pytest.approx(math.log(1e-6)) and brier == pytest.approx(2.0)
+
+
+def test_a_perception_answer_distribution_is_read_as_written(tmp_path: Path) -> None:
+    from craft_dsl.perception.distribution import AnswerDistribution
+
+    dist = AnswerDistribution({"true": 0.25, "false": 0.75}, {"true": True, "false": False}, "exact", 4)
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps({"0_1": {"answer_distribution": dist.to_json()}}))
+    assert collect_predictions(path)[(0, 1)].distribution == {"true": 0.25, "false": 0.75}
 
 
 # -- predictions files -----------------------------------------------------------------------------------------------
@@ -313,7 +322,7 @@ def test_evaluate_command(fixture_dir: Path, tmp_path: Path, capsys: pytest.Capt
     bad.write_text('{"0_0": {"trace": {"99": 1}}}')
     assert main(["evaluate", "--dataset", str(fixture_dir), "--predictions", str(bad)]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("error: ") and "bad.json: record '0_0', field 'trace': node 99" in err
+    assert err.startswith("error: ") and "bad.json: key '0_0', field 'trace': node 99" in err
 
 
 def test_vocab_and_export_pairs(fixture_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from test_physics_micro import each_engine
 
+from craft_dsl.analysis.scene_stats import format_table, scene_stats
 from craft_dsl.cli import main
-from craft_dsl.physics.stats import format_table, scene_stats
 
 
 @each_engine

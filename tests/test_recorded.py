@@ -22,7 +22,7 @@ from craft_dsl import (
     parse,
     save_simulation,
 )
-from craft_dsl import recorded as recorded_module
+from craft_dsl import atomic as atomic_module
 from craft_dsl.templates import templates
 from craft_dsl.types import INVALID_JSON
 from tests.conftest import BASIC_OBJECTS, E1_PATH, e1_data, make_sim
@@ -431,7 +431,7 @@ def test_save_is_atomic(e1: Simulation, tmp_path: Path, monkeypatch: pytest.Monk
         fh.write('{"original_video_output": {')  # a partial write before the failure
         raise OSError("disk full")
 
-    monkeypatch.setattr(recorded_module.json, "dump", broken_dump)
+    monkeypatch.setattr(atomic_module.json, "dump", broken_dump)
     with pytest.raises(OSError, match="disk full"):
         save_simulation(e1, target)
     assert list(tmp_path.iterdir()) == []  # neither the target nor a temporary file
@@ -439,7 +439,7 @@ def test_save_is_atomic(e1: Simulation, tmp_path: Path, monkeypatch: pytest.Monk
     monkeypatch.undo()
     save_simulation(e1, target)
     content = target.read_bytes()
-    monkeypatch.setattr(recorded_module.json, "dump", broken_dump)
+    monkeypatch.setattr(atomic_module.json, "dump", broken_dump)
     with pytest.raises(OSError):
         save_simulation(e1, target)
     assert target.read_bytes() == content

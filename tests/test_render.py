@@ -24,9 +24,9 @@ from craft_dsl.render import (
     write_video,
 )
 from craft_dsl.render.raster import SENSOR_GREY
-from craft_dsl.render.synthetic import synthetic_simulation
 from craft_dsl.vocabulary import COLOR_RGB
 from craft_dsl.world import WorldSpec, assign_uids, make_dynamic, make_static
+from tests.synthetic_scene import synthetic_simulation
 
 E1 = Path(__file__).parent / "data" / "e1.json"
 

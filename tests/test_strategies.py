@@ -79,8 +79,8 @@ def test_import_without_hypothesis_names_the_extra() -> None:
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False)
     assert res.returncode == 1
     last = res.stderr.strip().splitlines()[-1]
-    assert last == ("ImportError: craft_dsl.strategies needs hypothesis, which is not installed: "
-                    "pip install 'craft-dsl[strategies]'"), res.stderr
+    assert last == ("craft_dsl.errors.MissingExtraError: craft_dsl.strategies needs hypothesis, which is not "
+                    "installed: pip install 'craft-dsl[strategies]'"), res.stderr
 
 
 # -- programs -------------------------------------------------------------------------------------------------

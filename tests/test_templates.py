@@ -1,4 +1,4 @@
-"""The 67 CRAFT templates: node lists, types, round trips, the Appendix C answers and the dropped 19."""
+"""The 67 CRAFT templates: node lists, types, round trips, the worked example's answers and the dropped 19."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ DEFAULT_PARAMS = {"<Z>": "small", "<C>": "red", "<S>": "cube", "<Z2>": "large", 
 
 
 def _answer_type(tid: str) -> DslType:
-    """Answer types of spec original-question-engine.md §3.1."""
+    """Answer types of the templates."""
     family, index = tid.rsplit("_", 1)
     i = int(index)
     if family == "descriptive":

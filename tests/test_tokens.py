@@ -269,3 +269,13 @@ def test_every_well_typed_program_round_trips_through_every_token_form(
     assert back.to_tokens(order, names=names, fused=fused) == tokens  # type: ignore[arg-type]
     assert Program.from_tokens(" ".join(tokens), order).key == p.key  # type: ignore[arg-type]
     assert fast_check(str(back)) is None or fast_check(str(back)).nodes == p.key  # type: ignore[union-attr]
+
+
+def test_a_lone_value_is_a_program_in_no_form() -> None:
+    from craft_dsl import ProgramError
+
+    for text in ("0", "Var X = 3\nX", "-1"):
+        with pytest.raises(ProgramError, match="lone value"):
+            parse(text)
+    with pytest.raises(TokenError):
+        Program.from_tokens(["0"])

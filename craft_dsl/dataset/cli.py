@@ -1,7 +1,7 @@
 """Command ``craft-dsl generate``: generate a CRAFT-format dataset (see docs/dataset.md).
 
-Exit codes: 0 done; 2 bad configuration or failed instances (raised as :class:`CraftError`; re-running the same
-command resumes).
+Exit codes: 0 done; 2 bad configuration, a folder made with other settings, or failed instances (raised as
+:class:`CraftError`; re-running the same command resumes); 130 interrupted (Ctrl-C; re-running resumes).
 """
 
 from __future__ import annotations
@@ -29,7 +29,32 @@ def _int_list(text: str, option: str = "--scenes", example: str = "scene ids lik
     return tuple(out)
 
 
+class _Bars:
+    """One tqdm bar per stage (rate and time left), on stderr."""
+
+    def __init__(self) -> None:
+        self.bars: dict[str, Any] = {}
+
+    def start(self, stage: str, total: int, unit: str) -> None:
+        from tqdm import tqdm
+
+        label = {"videos": "simulate + ask", "merge": "merge"}.get(stage, stage)
+        self.bars[stage] = tqdm(total=total, unit=unit, desc=f"{label:>14}", file=sys.stderr,
+                                position=len(self.bars), dynamic_ncols=True)
+
+    def advance(self, stage: str, n: int = 1) -> None:
+        bar = self.bars.get(stage)
+        if bar is not None and n:
+            bar.update(n)
+
+    def close(self) -> None:
+        for bar in self.bars.values():
+            bar.close()
+        self.bars.clear()
+
+
 def cmd_generate(args: argparse.Namespace) -> int:
+    from .executors import make_executor
     from .pipeline import GenerationConfig, generate_dataset
 
     fields: dict[str, Any] = {"size": args.size, "seed": args.seed, "steps": args.steps,
@@ -43,26 +68,21 @@ def cmd_generate(args: argparse.Namespace) -> int:
     if args.templates is not None:
         fields["templates"] = tuple(t.strip() for t in args.templates.split(",") if t.strip())
     config = GenerationConfig.make(**fields)
+    if args.scheduler and args.executor != "dask":
+        raise CraftError("--scheduler is for --executor dask")
+    executor = make_executor(args.executor, config.workers, args.scheduler)
 
-    bar: Any = None
-    show = not args.quiet and sys.stderr.isatty()
-
-    def on_total(pending: int, total: int) -> None:
-        nonlocal bar
-        if pending < total:
-            print(f"resuming: {total - pending} of {total} videos already done", file=sys.stderr)
-        if show and pending:
-            from tqdm import tqdm
-
-            bar = tqdm(total=pending, unit="video", file=sys.stderr)
-
+    bars = _Bars() if not args.quiet and sys.stderr.isatty() else None
+    echo: Any = None if args.quiet else _resume_note if bars is not None else _print_err
     start = time.perf_counter()
     try:
-        report = generate_dataset(config, args.out, progress=lambda n: bar.update(n) if bar else None,
-                                  on_total=on_total)
-    finally:
-        if bar is not None:
-            bar.close()
+        report = generate_dataset(config, args.out, executor=executor, progress=bars, force=args.force, echo=echo)
+    except KeyboardInterrupt:
+        if bars is not None:
+            bars.close()
+        print(f"\ninterrupted: the finished work is saved in {args.out}; re-run the same command to resume",
+              file=sys.stderr)
+        return 130
     elapsed = time.perf_counter() - start
     if not args.quiet:
         q = report["questions"]
@@ -90,6 +110,16 @@ def cmd_generate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_err(message: str) -> None:
+    print(message, file=sys.stderr)
+
+
+def _resume_note(message: str) -> None:
+    """With progress bars, only the resume note is printed (the log file has every line)."""
+    if message.startswith("resuming"):
+        print(message, file=sys.stderr)
+
+
 def add_commands(sub: Any) -> None:
     gen = sub.add_parser("generate", help="generate a CRAFT-format dataset (simulate, ask, filter, balance, split)",
                          description="Generate a CRAFT-format dataset into --out (docs/dataset.md). Re-running the "
@@ -98,7 +128,16 @@ def add_commands(sub: Any) -> None:
     gen.add_argument("--seed", type=int, default=0, help="the seed of every random draw (default 0)")
     gen.add_argument("--out", required=True, help="output folder")
     gen.add_argument("--scenes", help="scene ids, e.g. 1,2 or 1-20 (default 1-20)")
-    gen.add_argument("--workers", type=int, default=1, help="worker processes (default 1); output is identical")
+    gen.add_argument("--workers", type=int, default=1,
+                     help="local worker processes (default 1); the output is identical for any number")
+    gen.add_argument("--executor", default="local", choices=("local", "dask"),
+                     help="where videos are computed: local processes (default) or a Dask cluster (needs the dask "
+                          "extra and --scheduler); the output is identical")
+    gen.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                     help="with --executor dask: the address of the Dask scheduler")
+    gen.add_argument("--force", action="store_true",
+                     help="run in a folder made with other settings: start over (or only add media when just "
+                          "--videos/--downsampled differ)")
     gen.add_argument("--perturbations", type=int, default=3,
                      help="perturbed re-simulations per video for the robustness filter (default 3; 0 = none)")
     gen.add_argument("--amount", type=float, default=0.02, help="perturbation noise amount (default 0.02)")
@@ -115,5 +154,6 @@ def add_commands(sub: Any) -> None:
     gen.add_argument("--no-balance", action="store_true",
                      help="skip answer balancing (small datasets: balancing purges every (scene, template) group "
                           "with a single answer)")
-    gen.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
+    gen.add_argument("--quiet", action="store_true",
+                     help="no progress display and no summary (the log file generation.log is still written)")
     gen.set_defaults(func=cmd_generate)

@@ -7,7 +7,6 @@ Files are read when first asked for; every error is a :class:`CraftError` naming
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Mapping
 from functools import cached_property
@@ -15,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import CraftError
+from ..files import read_json
 from ..verify.annotations import Annotations
 from ..verify.categories import category_of, family_of
 from ..verify.formats import Question, _read_json, parse_dataset, parse_minimal, parse_split
@@ -125,8 +125,8 @@ class DatasetFolder:
         if not path.is_file():
             return None
         try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+            data = read_json(path, "per-video record")
+        except CraftError:  # unreadable, deeply nested, not JSON: the viewer shows the video without it
             return None
         stats = data.get("stats") if isinstance(data, Mapping) else None
         return dict(stats) if isinstance(stats, Mapping) else None

@@ -78,30 +78,44 @@ def rows(folder: DatasetFolder) -> list[dict[str, Any]]:
     out = []
     for rec in folder.records:
         key = (int(rec["video_index"]), int(rec["question_index"]))
-        nodes = programs.get(key, [])
-        video = folder.video_relpath(rec)
-        out.append({
-            "video_index": key[0],
-            "question_index": key[1],
-            "question": str(rec.get("question", "")),
-            "answer": str(rec["answer"]),
-            "answer_type": str(rec.get("answer_type", "")),
-            "question_type": str(rec["question_type"]),
-            "category": rec["category"],
-            "family": rec["family"],
-            "template_id": rec["template_id"],
-            "template_filename": str(rec.get("template_filename") or rec["template_id"].rsplit("_", 1)[0] + ".json"),
-            "question_family_index": int(rec.get("question_family_index", rec["template_id"].rsplit("_", 1)[1])),
-            "simulation_id": rec["simulation_id"],
-            "video_file_path": video,
-            "first_frame_path": frame_relpath(video, "first"),
-            "last_frame_path": frame_relpath(video, "last"),
-            "program": _program_text(nodes, f"dataset.json: video {key[0]}, question {key[1]}") if nodes else "",
-            "program_nodes": [{"type": str(n.get("type", n.get("function", ""))),
-                               "inputs": [int(x) for x in n.get("inputs", [])],
-                               "value_inputs": [str(x) for x in n.get("value_inputs", [])]} for n in nodes],
-        })
+        out.append(row(rec, programs.get(key, []), folder.video_relpath(rec)))
     return out
+
+
+def row(rec: Mapping[str, Any], nodes: Sequence[Mapping[str, Any]], video: str,
+        program_text: str | None = None) -> dict[str, Any]:
+    """The row of one question: ``rec`` a :attr:`DatasetFolder.records` record, ``nodes`` its program's node
+    list from ``dataset.json``, ``video`` its video path; ``program_text`` the program's text form when known
+    (else read from ``nodes``)."""
+    key = (int(rec["video_index"]), int(rec["question_index"]))
+    if program_text is None:
+        program_text = _program_text(nodes, f"dataset.json: video {key[0]}, question {key[1]}") if nodes else ""
+    return {
+        "video_index": key[0],
+        "question_index": key[1],
+        "question": str(rec.get("question", "")),
+        "answer": str(rec["answer"]),
+        "answer_type": str(rec.get("answer_type", "")),
+        "question_type": str(rec["question_type"]),
+        "category": rec["category"],
+        "family": rec["family"],
+        "template_id": rec["template_id"],
+        "template_filename": str(rec.get("template_filename") or rec["template_id"].rsplit("_", 1)[0] + ".json"),
+        "question_family_index": int(rec.get("question_family_index", rec["template_id"].rsplit("_", 1)[1])),
+        "simulation_id": rec["simulation_id"],
+        "video_file_path": video,
+        "first_frame_path": frame_relpath(video, "first"),
+        "last_frame_path": frame_relpath(video, "last"),
+        "program": program_text,
+        "program_nodes": [{"type": str(n.get("type", n.get("function", ""))),
+                           "inputs": [int(x) for x in n.get("inputs", [])],
+                           "value_inputs": [str(x) for x in n.get("value_inputs", [])]} for n in nodes],
+    }
+
+
+def row_text(row: Mapping[str, Any]) -> str:
+    """A row as one JSONL line (without the newline)."""
+    return json.dumps(row, ensure_ascii=False)
 
 
 # -- files ----------------------------------------------------------------------------------------------------
@@ -126,8 +140,8 @@ def _have_pyarrow() -> bool:
 
 def _write_jsonl(items: Iterable[Mapping[str, Any]], path: Path) -> None:
     with atomic_path(path) as tmp, tmp.open("w", encoding="utf-8") as fh:
-        for row in items:
-            fh.write(json.dumps(row, ensure_ascii=False) + "\n")
+        for item in items:
+            fh.write(row_text(item) + "\n")
 
 
 def _write_parquet(items: Sequence[Mapping[str, Any]], path: Path) -> None:
@@ -177,6 +191,58 @@ def write_hf(root: str | os.PathLike[str], parquet: bool | None = None, card: bo
             tmp.write_text(text, encoding="utf-8")
         files.append(CARD)
     return HfResult(tuple(files), counts, bool(parquet))
+
+
+def _parquet_from_jsonl(source: Path, target: Path, batch: int = 2000) -> None:
+    """The Parquet file of a JSONL part, read ``batch`` rows at a time into Arrow (a few hundred bytes per row
+    instead of a few kilobytes as Python objects); the combined table gives the bytes :func:`_write_parquet`
+    writes."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    schema = _arrow_schema()
+    batches, rows = [], []
+    with source.open(encoding="utf-8") as fh:
+        for line in fh:
+            rows.append(json.loads(line))
+            if len(rows) == batch:
+                batches.append(pa.RecordBatch.from_pylist(rows, schema=schema))
+                rows = []
+    if rows:
+        batches.append(pa.RecordBatch.from_pylist(rows, schema=schema))
+    table = pa.Table.from_batches(batches, schema=schema).combine_chunks()
+    del batches
+    with atomic_path(target) as tmp:
+        pq.write_table(table, tmp, compression="zstd")
+
+
+def finish_streamed(root: str | os.PathLike[str], counts: Mapping[str, Mapping[str, int]],
+                    parquet: bool | None = None) -> HfResult:
+    """The Parquet files and the card of JSONL part files already written (``craft-dsl generate`` streams them):
+    the same files :func:`write_hf` writes from the folder, without reading ``dataset.json`` again. Parquet
+    tables are built one part at a time from its JSONL file."""
+    folder = DatasetFolder(root)
+    if parquet is None:
+        parquet = _have_pyarrow()
+    files: list[str] = []
+    for split in SPLITS:
+        for part in PARTS:
+            base = folder.root / HF_FOLDER / split / part
+            if not counts[split][part]:
+                for ext in (".jsonl", ".parquet"):
+                    base.with_suffix(ext).unlink(missing_ok=True)
+                continue
+            files.append(f"{HF_FOLDER}/{split}/{part}.jsonl")
+            if parquet:
+                _parquet_from_jsonl(base.with_suffix(".jsonl"), base.with_suffix(".parquet"))
+                files.append(f"{HF_FOLDER}/{split}/{part}.parquet")
+            else:
+                base.with_suffix(".parquet").unlink(missing_ok=True)
+    text = card_text(folder, counts, "parquet" if parquet else "jsonl")
+    with atomic_path(folder.root / CARD) as tmp:
+        tmp.write_text(text, encoding="utf-8")
+    files.append(CARD)
+    return HfResult(tuple(files), {k: dict(v) for k, v in counts.items()}, bool(parquet))
 
 
 # -- the card -------------------------------------------------------------------------------------------------

@@ -1,9 +1,9 @@
-"""Per-video question generation: one simulation -> its CRAFT questions (spec original-question-engine.md §4).
+"""Per-video question generation: one simulation -> its CRAFT questions.
 
 :func:`generate_questions` reproduces the original generator (``svqa/generate_questions.py``) for one video:
-starred-word synonyms (§4.3), depth-first instantiation with shuffled value lists (§4.4), paraphrase choice and
-value synonyms (§4.5, §4.8), and the output record (§4.9). :func:`perturbation_filter` is the perturbation check
-(§6.4), improved as the spec README §6 decides: the *whole* scene is perturbed once per perturbation.
+starred-word synonyms, depth-first instantiation with shuffled value lists, paraphrase choice and
+value synonyms, and the output record. :func:`perturbation_filter` is the perturbation check,
+improved: the *whole* scene is perturbed once per perturbation.
 
 Randomness. Every draw comes from the ``numpy.random.Generator`` passed in, in this fixed order. Templates are
 processed in file order (descriptive, counterfactual, cause, enable, prevent; never re-sorted by counts); for
@@ -26,13 +26,15 @@ both the exploration order and the sequence of draws are the original's.
 Pruning. As in the original, the search prunes at ``unique`` nodes only. For speed the candidate set that
 feeds a chain of attribute filters is evaluated once per binding of the earlier parameters (the node-list
 prefix ending at that set, run with :meth:`Program.from_nodes`, cached per (prefix, bindings)), and the
-filters and ``unique`` are then applied to it directly (equality on size, colour and shape, exactly the
-semantics of ``filter_size/color/shape``). ``fast=False`` in :func:`instantiate_dfs` evaluates every
-``unique`` prefix with the DSL instead (the tests check both give the same choices).
+filters and ``unique`` are then applied to it with the evaluator's own module functions
+(:func:`craft_dsl.semantics.filter_size` / ``filter_color`` / ``filter_shape`` and ``unique``), so the search
+has no semantics of its own. ``fast=False`` in :func:`instantiate_dfs` evaluates every ``unique`` prefix as a
+whole program instead (the tests check both give the same choices). Compiled prefixes are cached per process
+(programs do not depend on the scene), so a worker compiles each template prefix once.
 
 Deviations from the original, and why:
 
-* answer rejection (§4.7) is not reproduced: with fresh counters in every real use it never rejects anything;
+* answer rejection is not reproduced: with fresh counters in every real use it never rejects anything;
 * a complete program whose answer is INVALID is skipped and the search goes on. In the original only
   ``unique`` produces ``'__INVALID__'``; ``filter_first``/``filter_last`` on an empty list and ``event_partner``
   on a foreign event raise and abort the whole video, whereas the DSL returns INVALID. No CRAFT template reaches
@@ -45,17 +47,20 @@ Deviations from the original, and why:
 from __future__ import annotations
 
 import re
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from functools import lru_cache
 from typing import Any, Protocol
 
 import numpy as np
 
+from .. import semantics
 from ..errors import CounterfactualUnavailable
 from ..program import Program, to_json
+from ..semantics import ObjectSet
 from ..simulation import Simulation
 from ..templates import Template, paraphrases, templates
 from ..types import INVALID
+from ..verify.records import question_record, template_id_of
 from ..vocabulary import COLORS, SHAPES, SIZES
 from .synonyms import SYNONYMS
 
@@ -63,11 +68,11 @@ __all__ = ["generate_questions", "instantiate_dfs", "perturbation_filter", "rend
 
 _STAR = re.compile(r"\*(.+?)\*")
 
-#: Side-input node type -> (attribute of SimObject, vocabulary enumerated by the DFS), §4.5.
-_FILTERS: dict[str, tuple[str, tuple[str, ...]]] = {
-    "filter_size": ("size", SIZES),
-    "filter_color": ("color", COLORS),
-    "filter_shape": ("shape", SHAPES),
+#: Side-input node type -> (the evaluator's module function, vocabulary enumerated by the DFS).
+_SIDE_INPUT_MODULES: dict[str, tuple[Callable[[Simulation, ObjectSet, str], ObjectSet], tuple[str, ...]]] = {
+    "filter_size": (semantics.filter_size, SIZES),
+    "filter_color": (semantics.filter_color, COLORS),
+    "filter_shape": (semantics.filter_shape, SHAPES),
 }
 
 
@@ -75,7 +80,7 @@ _FILTERS: dict[str, tuple[str, tuple[str, ...]]] = {
 
 
 def star_paraphrases(texts: Sequence[str], rng: np.random.Generator) -> list[str]:
-    """§4.3: in each paraphrase, every distinct ``*word*`` (sorted) gets one synonym for all its occurrences."""
+    """In each paraphrase, every distinct ``*word*`` (sorted) gets one synonym for all its occurrences."""
     out = []
     for text in texts:
         for word in sorted(set(_STAR.findall(text))):
@@ -86,7 +91,7 @@ def star_paraphrases(texts: Sequence[str], rng: np.random.Generator) -> list[str
 
 
 def render_text(texts: Sequence[str], params: Mapping[str, str], rng: np.random.Generator) -> str:
-    """§4.8: choose a (star-substituted) paraphrase, bind the placeholders with value synonyms, collapse spaces."""
+    """Choose a (star-substituted) paraphrase, bind the placeholders with value synonyms, collapse spaces."""
     text = texts[int(rng.integers(len(texts)))]
     for placeholder, value in params.items():
         alternatives = SYNONYMS.get(value)
@@ -106,9 +111,9 @@ def _compiled(template_id: str, end: int, params: tuple[tuple[str, str], ...]) -
     return Program.from_nodes(templates()[template_id].nodes[: end + 1], dict(params))
 
 
-@lru_cache(maxsize=8192)
 def program_nodes(program: Program, sim: Simulation) -> list[dict[str, Any]]:
-    """The record's ``program``: ``program.to_nodes(outputs=sim)`` (the node list itself is cached per program)."""
+    """The record's ``program``: ``program.to_nodes(outputs=sim)`` (not cached: a cache keyed by the simulation
+    would keep every simulation of a worker alive)."""
     return program.to_nodes(outputs=sim)
 
 
@@ -146,7 +151,7 @@ class _Search:
             if node["type"] == "unique":
                 (i,) = node["inputs"]
                 if self.fast and i in sets:
-                    if len(sets[i]) != 1:
+                    if semantics.unique(self.sim, sets[i]) is INVALID:
                         return
                 elif self.prefix_value(k, params) is INVALID:
                     return
@@ -160,7 +165,7 @@ class _Search:
         self, k: int, placeholder: str, params: dict[str, str], sets: dict[int, tuple[int, ...]]
     ) -> Iterator[tuple[dict[str, str], Program, Any]]:
         node = self.nodes[k]
-        attr, vocabulary = _FILTERS[node["type"]]
+        module, vocabulary = _SIDE_INPUT_MODULES[node["type"]]
         (i,) = node["inputs"]
         if self.fast:
             base = sets[i] if i in sets else self.prefix_value(i, params)
@@ -172,18 +177,17 @@ class _Search:
             child = {**params, placeholder: value}
             child_sets = sets
             if self.fast:
-                by_id = self.sim.object
-                child_sets = {**sets, k: tuple(o for o in base if getattr(by_id(o), attr) == value)}
+                child_sets = {**sets, k: module(self.sim, base, value)}
             yield from self._visit(k + 1, child, child_sets)
 
 
 def instantiate_dfs(
     template: Template, sim: Simulation, rng: np.random.Generator, max_instances: int = 1, fast: bool = True
 ) -> list[tuple[dict[str, str], Program, Any]]:
-    """§4.4: the first ``max_instances`` complete valid instantiations in DFS order, as (params, program, answer).
+    """The first ``max_instances`` complete valid instantiations in DFS order, as (params, program, answer).
 
     ``params`` is in binding order (``<Z>, <C>, <S>, <Z2>, ...``). Empty when the template has no valid
-    instantiation on ``sim`` (§3.9).
+    instantiation on ``sim``.
     """
     found: list[tuple[dict[str, str], Program, Any]] = []
     if max_instances <= 0:
@@ -218,7 +222,7 @@ def generate_questions(
     template_ids: Sequence[str] | None = None,
     instances_per_template: int = 1,
 ) -> list[dict[str, Any]]:
-    """The CRAFT questions of one video, in the record format of §4.9 (plus ``template_id``).
+    """The CRAFT questions of one video, in the published record format (plus ``template_id``).
 
     One question per template that can be instantiated (at most ``instances_per_template``), templates in file
     order (``template_ids`` restricts them; default: all 67, the dropped ones included — dropping is a pipeline
@@ -232,18 +236,10 @@ def generate_questions(
     for template in _selected_templates(template_ids):
         starred = star_paraphrases(texts[template.id], rng)
         for params, program, answer in instantiate_dfs(template, sim, rng, instances_per_template):
-            records.append({
-                "video_filename": video_filename,
-                "video_index": video_index,
-                "video": f"{video_index:06d}",
-                "question": render_text(starred, params, rng),
-                "program": program_nodes(program, sim),
-                "answer": to_json(answer, original=True),
-                "template_filename": f"{template.family}.json",
-                "question_family_index": template.index,
-                "question_index": len(records),
-                "template_id": template.id,
-            })
+            records.append(question_record(
+                video_filename=video_filename, video_index=video_index, question=render_text(starred, params, rng),
+                program=program_nodes(program, sim), answer=to_json(answer, original=True), family=template.family,
+                family_index=template.index, question_index=len(records), template_id=template.id))
     return records
 
 
@@ -257,7 +253,7 @@ class Perturbable(Protocol):
 
 
 def _answer_on(program: Program, sim: Simulation) -> Any:
-    """The answer on a perturbed run, or None when it is INVALID or a counterfactual is unavailable (§4.11)."""
+    """The answer on a perturbed run, or None when it is INVALID or a counterfactual is unavailable."""
     try:
         answer = program.run(sim)
     except CounterfactualUnavailable:
@@ -277,7 +273,7 @@ def perturbation_filter(
     For each perturbation one seed ``int(rng.integers(2**31 - 1))`` is drawn (all seeds first, in order) and
     ``sim.perturbed(seed, amount)`` re-simulates the whole scene, factual run included; its counterfactuals are
     clean and not perturbed again. Each saved program is re-run on it; a question is kept when
-    ``str(new answer) == str(saved answer)`` in all perturbations (§6.4 step 7; INVALID or an unavailable
+    ``str(new answer) == str(saved answer)`` in all perturbations (INVALID or an unavailable
     counterfactual counts as a change). Questions already dropped are not re-checked (the result is the same).
 
     Returns the kept records (unchanged, ``question_index`` included) and the stats: ``{template_id: number of
@@ -286,7 +282,7 @@ def perturbation_filter(
     seeds = [int(rng.integers(2**31 - 1)) for _ in range(perturbations)]
     stats: dict[str, int] = {}
     for q in questions:
-        stats.setdefault(_template_id_of(q), 0)
+        stats.setdefault(template_id_of(q), 0)
     alive = [(q, Program.from_nodes(q["program"])) for q in questions]
     for seed in seeds:
         if not alive:
@@ -297,13 +293,6 @@ def perturbation_filter(
             if str(_answer_on(program, psim)) == str(q["answer"]):
                 survivors.append((q, program))
             else:
-                stats[_template_id_of(q)] += 1
+                stats[template_id_of(q)] += 1
         alive = survivors
     return [q for q, _ in alive], stats
-
-
-def _template_id_of(q: Mapping[str, Any]) -> str:
-    tid = q.get("template_id")
-    if isinstance(tid, str):
-        return tid
-    return f"{str(q['template_filename']).removesuffix('.json')}_{q['question_family_index']}"

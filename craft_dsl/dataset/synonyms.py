@@ -1,4 +1,4 @@
-"""The original generator's ``synonyms.json`` (spec original-question-engine.md §4.3), as data.
+"""The original generator's ``synonyms.json``, as data.
 
 Keys are starred template words (``*enter*``) and parameter values (``small``, ``large``, ``cube``); each
 maps to the alternatives drawn uniformly. The table is complete: CLEVR keys that CRAFT never uses

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import CraftError
+from ..progress import show_progress
 
 #: Special tokens at the start of every vocabulary, as sequence-to-sequence code expects them.
 SPECIAL_TOKENS: tuple[str, ...] = ("<NULL>", "<START>", "<END>", "<UNK>")
@@ -26,7 +27,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     split = read_split(args.split, args.part or "test") if args.split else None
     bar: Any = None
     progress = None
-    if args.progress:
+    if show_progress(args):
         from tqdm import tqdm
 
         bar = tqdm(unit="q", file=sys.stderr)
@@ -141,7 +142,8 @@ def add_commands(sub: Any) -> None:
     ev.add_argument("--per-question", action="store_true", help="with --json: include every question's result")
     ev.add_argument("--per-template", action="store_true", help="also list every template")
     ev.add_argument("--failures", type=int, default=10, metavar="N", help="list the first N problems")
-    ev.add_argument("--progress", action="store_true", help="show a progress bar on stderr")
+    ev.add_argument("--progress", action="store_true", help="a progress bar even when stderr is no terminal")
+    ev.add_argument("--quiet", action="store_true", help="no progress bar")
     ev.set_defaults(func=cmd_evaluate)
 
     vo = sub.add_parser("vocab", formatter_class=fmt,

@@ -17,7 +17,6 @@ cannot score by answering only what it is sure of; the counts say how many quest
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -36,9 +35,6 @@ from .forms import ProgramCache, detect_form
 from .outcome import OUTCOMES, ProgramOutcome, check_outcome, run_outcome
 from .predictions import MISSING, Prediction, collect_predictions
 from .traces import TraceComparison, compare_trace
-
-#: Probabilities are floored here before taking logarithms (a zero probability would give minus infinity).
-PROBABILITY_FLOOR = 1e-12
 
 
 @dataclass
@@ -253,13 +249,15 @@ def _annotations(annotations: Any, folder: Path | None) -> Annotations:
 
 
 def score_distribution(dist: Mapping[str, float], recorded: Any) -> tuple[bool, float, float]:
-    """Mode correct, log-likelihood of the recorded answer (natural log, probabilities floored at
-    :data:`PROBABILITY_FLOOR`) and the Brier score (sum over answers of (p - [answer is recorded])^2)."""
+    """Mode correct, log-likelihood of the recorded answer and Brier score of a distribution ``{answer key:
+    probability}``, scored as :class:`craft_dsl.perception.AnswerDistribution` scores (natural log with
+    probabilities floored at its ``LOG_FLOOR``; Brier: sum over answers of (p - [answer is recorded])^2)."""
+    from ..perception.distribution import AnswerDistribution
+
+    distribution = AnswerDistribution(dict(dist), {k: k for k in dist}, "given", 0)
     truth = normalise_answer(recorded)
-    mode = max(sorted(dist), key=lambda a: dist[a])
-    p_true = dist.get(truth, 0.0)
-    brier = sum((p - (a == truth)) ** 2 for a, p in dist.items()) + (0.0 if truth in dist else 1.0)
-    return mode == truth, math.log(max(p_true, PROBABILITY_FLOOR)), brier
+    return (normalise_answer(distribution.mode) == truth, distribution.log_likelihood(recorded),
+            distribution.brier(recorded))
 
 
 def evaluate_predictions(

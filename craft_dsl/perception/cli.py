@@ -11,6 +11,8 @@ import sys
 from typing import Any
 
 from ..errors import CraftError
+from ..ranges import parse_scene
+from ..vocabulary import DEFAULT_ENGINE, ENGINES
 from .schema import PerceivedScene
 from .validation import Problem
 
@@ -202,7 +204,7 @@ def _execution_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--counterfactual", default="replay", choices=_CF_MODES,
                    help="counterfactual runs: replayed against the tracks or re-simulated from the fitted start "
                         "(default replay)")
-    p.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"), help="physics engine (default pymunk)")
+    p.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES, help="physics engine (default pymunk)")
     p.add_argument("--json", action="store_true", help="print JSON")
 
 
@@ -222,9 +224,9 @@ def add_commands(sub: Any) -> None:
     cmds = perceive.add_subparsers(dest="perceive_command", required=True, metavar="COMMAND")
 
     export = cmds.add_parser("export", help="the ground-truth perceived scene of a simulation")
-    export.add_argument("--scene", type=int, help="simulate this scene layout (1-20) live")
+    export.add_argument("--scene", type=parse_scene, help="simulate this scene layout (1-20 or a layout file) live")
     export.add_argument("--seed", type=int, default=0, help="seed of the live simulation (default 0)")
-    export.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"), help="physics engine")
+    export.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES, help="physics engine")
     export.add_argument("--sim", help="or a recorded simulation JSON file (no tracks: start/end states only)")
     export.add_argument("--fps", type=float, default=60, help="frame rate of the video and tracks (default 60)")
     export.add_argument("--size", type=int, default=256, help="video size in pixels (default 256)")

@@ -1,6 +1,6 @@
 """The Box2D engine adapter (PyPI ``box2d`` = pybox2d 2.3.10, the Box2D 2.3 line the original used).
 
-Settings as in the original simulator (spec ``original-simulator.md`` §1-2, §10); pybox2d's compiled
+Settings as in the original simulator; pybox2d's compiled
 constants already match the original's build (linear slop 0.005, polygon skin 0.01, velocity threshold
 1 m/s, time to sleep 0.5 s, sleep tolerances 0.01 m/s and 2 deg/s, max translation 2 m per step):
 

@@ -1,4 +1,4 @@
-"""Contact log -> events, by the original simulator's rules (spec README §4, original-simulator §4.3).
+"""Contact log -> events, by the original simulator's rules.
 
 For every touching interval [b, e) of a shape pair (``e == steps``: still touching at the end):
 

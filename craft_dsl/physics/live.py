@@ -1,6 +1,6 @@
 """Live simulations: run a scene, derive events, and make clean counterfactuals and perturbations.
 
-Clean counterfactuals (spec README §4). Re-running a physics engine without one body is not clean:
+Clean counterfactuals. Re-running a physics engine without one body is not clean:
 removing a body changes the engine's internal pair order, and chaotic contacts amplify the rounding, so
 bodies that never met the removed one drift. Instead, the run without ``o`` is built against the base
 (factual) run as a monotone fixed point:
@@ -32,8 +32,9 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from ..errors import CounterfactualUnavailable
+from ..errors import CounterfactualUnavailable, MissingExtraError
 from ..simulation import ObjectState, SimObject, Simulation, Trajectory
+from ..vocabulary import ENGINES
 from ..world import DEFAULT_STEPS, WorldSpec
 from .engine import ContactLog, Interval, PhysicsEngine, RawRun, ReplayPlan, splice
 from .events import events_from_log
@@ -43,7 +44,6 @@ _K = TypeVar("_K", bound=tuple[int, ...])
 
 
 #: Engine names accepted by :func:`get_engine` and ``simulate(..., engine=...)``.
-ENGINES = ("pymunk", "box2d")
 
 
 def get_engine(engine: str | PhysicsEngine) -> PhysicsEngine:
@@ -62,9 +62,7 @@ def get_engine(engine: str | PhysicsEngine) -> PhysicsEngine:
         except ModuleNotFoundError as exc:  # the optional extra is missing
             if exc.name != "Box2D":
                 raise
-            raise ModuleNotFoundError(
-                "the box2d engine needs pybox2d: pip install 'craft-dsl[box2d]'"
-            ) from exc
+            raise MissingExtraError("the box2d engine", "box2d", "pybox2d") from exc
         return Box2DEngine()
     raise ValueError(f"unknown physics engine {engine!r}; available: {', '.join(ENGINES)}")
 
@@ -162,8 +160,8 @@ class LiveSimulation(Simulation):
         )
 
     def perturbed(self, seed: int, amount: float = 0.02) -> LiveSimulation:
-        """The whole scene re-simulated from a perturbed initial state (original-simulator §7, applied
-        once); its counterfactuals are live and not perturbed again."""
+        """The whole scene re-simulated from a perturbed initial state (the original simulator's perturbation
+        noise, applied once); its counterfactuals are live and not perturbed again."""
         world = perturb_world(self.world_spec, seed, amount)
         meta = dict(self.meta, perturbation_seed=seed, perturbation_amount=amount)
         return LiveSimulation(world, self.engine.run(world, self.steps), self.engine, meta=meta,
@@ -284,7 +282,7 @@ def clean_counterfactual(
 
 
 def perturb_world(world: WorldSpec, seed: int, amount: float = 0.02) -> WorldSpec:
-    """original-simulator §7 noise, once per dynamic body with one seeded generator (creation order):
+    """The original simulator's perturbation noise, once per dynamic body with one seeded generator (creation order):
     r ~ U(-1, 1); angle and velocity scaled by (1 + a r); x and y shifted by 10 a r / (1 + a r) when
     vx != 0."""
     rng = np.random.default_rng(seed)

@@ -1,6 +1,6 @@
 """The pymunk 7 (Chipmunk2D) engine adapter.
 
-Box2D behaviour emulated (spec ``original-simulator.md`` §1, §2, §10):
+Box2D behaviour of the original simulator, emulated:
 
 * friction 0.1 on every contact (each shape gets sqrt(0.1), Chipmunk multiplies); restitution 0.2 applied
   only when a contact begins with a normal approach speed above 1 m/s (Box2D's velocity threshold), else 0;
@@ -129,17 +129,19 @@ class PymunkEngine:
         return _Run(self, world, steps, replay).execute()
 
     def run_bare(self, world: WorldSpec, steps: int) -> pymunk.Space:
-        """Step the same space with no callbacks and no recording (the benchmark's baseline)."""
+        """Step the same space with no callbacks and no recording (the benchmarks' floor: Chipmunk's step called
+        directly, as :meth:`run` does)."""
         space, bodies, _ = self.build_space(world)
         fps = float(world.steps_per_second)
         handles = [b._body for b in bodies.values() if b.body_type == pymunk.Body.DYNAMIC]
         get_vel = _lib.cpBodyGetVelocity
         vmax2 = max((v[0] ** 2 + v[1] ** 2 for v in (b.velocity for b in world.bodies if b.dynamic)), default=0.0)
+        c_step, c_space = _lib.cpSpaceStep, space._space
         for _ in range(steps):
             n = self.substeps_for(vmax2, fps)
             dt = 1.0 / fps / n
             for _ in range(n):
-                space.step(dt)
+                c_step(c_space, dt)
             vmax2 = 0.0
             for h in handles:
                 v = get_vel(h)
@@ -169,16 +171,24 @@ class _Run:
         rec.begin(key, self.frame)
         if ia.sensor or ib.sensor:
             return
-        # Box2D's restitution threshold: bounce only on an approach faster than 1 m/s.
-        n = arb.normal
+        # Box2D's restitution threshold: bounce only on an approach faster than 1 m/s. (The Chipmunk calls
+        # behind pymunk's arb.normal, arb.contact_point_set, body.velocity_at_world_point and arb.restitution,
+        # with the same arithmetic, without building their Python objects.)
         ba, bb = sa.body, sb.body
         assert ba is not None and bb is not None
+        h, ha, hb = arb._arbiter, ba._body, bb._body
+        n = _lib.cpArbiterGetNormal(h)
+        nx, ny = n.x, n.y
+        points = _lib.cpArbiterGetContactPointSet(h)
+        velocity_at = _lib.cpBodyGetVelocityAtWorldPoint
         approach = 0.0
-        for pt in arb.contact_point_set.points:
-            p = pt.point_a
-            dv = bb.velocity_at_world_point(p) - ba.velocity_at_world_point(p)
-            approach = max(approach, -(dv.x * n.x + dv.y * n.y))
-        arb.restitution = RESTITUTION if approach > RESTITUTION_THRESHOLD else 0.0
+        for i in range(points.count):
+            pa = points.points[i].pointA
+            p = (pa.x, pa.y)
+            vb, va = velocity_at(hb, p), velocity_at(ha, p)
+            dvx, dvy = vb.x - va.x, vb.y - va.y
+            approach = max(approach, -(dvx * nx + dvy * ny))
+        _lib.cpArbiterSetRestitution(h, RESTITUTION if approach > RESTITUTION_THRESHOLD else 0.0)
 
     def _separate(self, arb: pymunk.Arbiter, space: pymunk.Space, data: Any) -> None:
         if not self.stepping or arb.is_removal:
@@ -211,24 +221,38 @@ class _Run:
         get_angvel, is_sleeping = _lib.cpBodyGetAngularVelocity, _lib.cpBodyIsSleeping
         vel = rec.vel
         vmax2 = max((float(vel[first, i, 0] ** 2 + vel[first, i, 1] ** 2) for i, _ in active), default=0.0)
-        step = space.step
+        # Chipmunk's step called directly: pymunk's Space.step wrapper only adds bookkeeping for shapes added or
+        # removed inside callbacks (none here), and costs as much as a small world's step.
+        c_step, c_space = _lib.cpSpaceStep, space._space
+        kinematic = _KinematicRows(rec, fps)
+        pending = rec.pending
+        # substeps_for(), inlined: the same arithmetic
+        sqrt, ceil, max_move = math.sqrt, math.ceil, eng.max_move
+        min_sub, max_sub = eng.substeps, eng.max_substeps
         self.stepping = True
         for k in range(first, steps):
             self.frame = k
-            for uid in rec.due(k):
-                body = bodies[uid]
-                body.body_type = pymunk.Body.DYNAMIC
-                for shape in body.shapes:
-                    shape.filter = _FILTER_DYNAMIC
-                _set_state(body, rec.state(rec.col[uid], k))
-                rec.activate(uid, body, k)
-            for i, body in rec.kinematic:
-                _set_state(body, rec.kinematic_state(i, k, fps))
-            n_sub = eng.substeps_for(vmax2, fps)
+            if pending and pending[0][0] == k:
+                for uid in rec.due(k):
+                    body = bodies[uid]
+                    body.body_type = pymunk.Body.DYNAMIC
+                    for shape in body.shapes:
+                        shape.filter = _FILTER_DYNAMIC
+                    _set_state(body, rec.state(rec.col[uid], k))
+                    rec.activate(uid, body, k)
+                kinematic = _KinematicRows(rec, fps)
+            if kinematic.rows:
+                kinematic.place(k)
+            need = ceil(sqrt(vmax2) / fps / max_move)
+            at_least = min_sub if need < min_sub else need
+            n_sub = max_sub if at_least > max_sub else at_least
             dt = 1.0 / fps / n_sub
-            for j in range(n_sub):
-                self.substep = j
-                step(dt)
+            # the separate callback only asks whether a sub-step is the frame's first (see _separate)
+            self.substep = 0
+            c_step(c_space, dt)
+            self.substep = 1
+            for _ in range(n_sub - 1):
+                c_step(c_space, dt)
             vmax2 = 0.0
             for i, body in active:
                 # Direct Chipmunk getters: the recording is the hot loop of a run.
@@ -243,8 +267,11 @@ class _Run:
                     aw_.append(False)
                 else:
                     v = get_vel(h)
-                    v_.append((v.x, v.y))
-                    vmax2 = max(vmax2, v.x * v.x + v.y * v.y)
+                    vx, vy = v.x, v.y
+                    v_.append((vx, vy))
+                    speed2 = vx * vx + vy * vy
+                    if speed2 > vmax2:
+                        vmax2 = speed2
                     w_.append(get_angvel(h))
                     aw_.append(True)
         self.stepping = False
@@ -252,8 +279,36 @@ class _Run:
 
 
 def _set_state(body: pymunk.Body, state: BodyState) -> None:
+    """Place ``body`` in ``state`` (the Chipmunk setters pymunk's properties call, in the same order)."""
     position, angle, velocity, angular_velocity = state
-    body.position = position
-    body.angle = angle
-    body.velocity = velocity
-    body.angular_velocity = angular_velocity
+    h = body._body
+    _lib.cpBodySetPosition(h, position)
+    _lib.cpBodySetAngle(h, angle)
+    _lib.cpBodySetVelocity(h, velocity)
+    _lib.cpBodySetAngularVelocity(h, angular_velocity)
+
+
+class _KinematicRows:
+    """The replayed bodies' recorded rows as Python floats, placed frame by frame.
+
+    Frame ``k`` puts each replayed body on row ``k`` moving at the mean velocity that reaches row ``k + 1``:
+    the same values, in the same order of Chipmunk calls, as ``_set_state(body, rec.kinematic_state(...))``,
+    without converting numpy scalars every frame."""
+
+    def __init__(self, rec: StateRecorder[pymunk.Body], fps: float) -> None:
+        self.fps = fps
+        self.rows = [
+            (body._body, rec.pos[:, i, 0].tolist(), rec.pos[:, i, 1].tolist(), rec.ang[:, i].tolist())
+            for i, body in rec.kinematic
+        ]
+
+    def place(self, k: int) -> None:
+        fps = self.fps
+        set_pos, set_angle = _lib.cpBodySetPosition, _lib.cpBodySetAngle
+        set_vel, set_angvel = _lib.cpBodySetVelocity, _lib.cpBodySetAngularVelocity
+        for h, xs, ys, angles in self.rows:
+            x0, y0, a0 = xs[k], ys[k], angles[k]
+            set_pos(h, (x0, y0))
+            set_angle(h, a0)
+            set_vel(h, ((xs[k + 1] - x0) * fps, (ys[k + 1] - y0) * fps))
+            set_angvel(h, (angles[k + 1] - a0) * fps)

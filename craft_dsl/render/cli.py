@@ -8,6 +8,9 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import CraftError
+from ..ranges import parse_scene
+from ..vocabulary import DEFAULT_ENGINE, ENGINES
+from ..world import DEFAULT_STEPS
 
 
 def cmd_render(args: argparse.Namespace) -> int:
@@ -31,14 +34,14 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def add_commands(sub: Any) -> None:
     render = sub.add_parser("render", help="render a simulated scene as a video (.mp4, .mpg, .gif) or a frame (.png)")
-    render.add_argument("--scene", type=int, required=True, help="scene layout 1-20")
+    render.add_argument("--scene", type=parse_scene, required=True, help="scene layout 1-20, or a layout file")
     render.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     render.add_argument("--out", required=True,
                         help="output file: .mp4 (H.264), .mpg (MPEG-1, as the published CRAFT videos), .gif, "
                              "or .png with --frame")
     render.add_argument("--frame", type=int, help="write only the frame after this many steps, as PNG")
     render.add_argument("--fps", type=float, default=60, help="frames per second, at most 60 (default 60)")
-    render.add_argument("--steps", type=int, default=600, help="simulation steps (default 600 = 10 s)")
-    render.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"), help="physics engine")
+    render.add_argument("--steps", type=int, default=DEFAULT_STEPS, help="simulation steps (default 600 = 10 s)")
+    render.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES, help="physics engine")
     render.add_argument("--quiet", action="store_true", help="no progress bar")
     render.set_defaults(func=cmd_render)

@@ -1,4 +1,4 @@
-"""Pure-numpy rasteriser reproducing the CRAFT look (spec ``original-simulator.md`` §1, §2.3, §2.4, §8).
+"""Pure-numpy rasteriser reproducing the look of the original CRAFT videos.
 
 Every shape is drawn from a signed distance (metres, negative inside) turned into pixel coverage by
 ``clamp(0.5 - d * px_per_m)``, which antialiases an edge over one pixel. The static layer (walls, ground,

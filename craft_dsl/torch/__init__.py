@@ -14,7 +14,9 @@ from __future__ import annotations
 try:
     import torch  # noqa: F401
 except ImportError as err:  # pragma: no cover - depends on the environment
-    raise ImportError("craft_dsl.torch needs PyTorch and PyAV: pip install 'craft-dsl[torch]'") from err
+    from ..errors import MissingExtraError
+
+    raise MissingExtraError("craft_dsl.torch", "torch", "PyTorch") from err
 
 from .dataset import FRAME_MODES, PAD, UNK, CraftVideoQA, collate
 from .video import decode_image, decode_video

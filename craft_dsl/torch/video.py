@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import CraftError
+from ..errors import CraftError, MissingExtraError
 from ..render import frame_steps
 
 Size = int | tuple[int, int] | None
@@ -23,7 +23,7 @@ def _av() -> Any:
     try:
         import av
     except ImportError:
-        raise CraftError("decoding videos needs PyAV: pip install 'craft-dsl[torch]'") from None
+        raise MissingExtraError("decoding videos", "torch", "PyAV") from None
     return av
 
 

@@ -6,10 +6,10 @@ Two tools for a researcher holding the published CRAFT dataset (or one written i
   (``Program.from_nodes``) over its video's simulation from ``annotations.json``, and lists the questions whose
   recorded answer differs, and those that could not be re-answered (unreadable program, missing simulation).
 * :func:`score` scores a model's predictions against ``dataset_minimal.json`` (or ``dataset.json``): accuracy
-  overall, per paper column (C, CF, D, All), per paper sub-category (README §5), per question type and per
+  overall, per paper column (C, CF, D, All), per paper sub-category, per question type and per
   template, optionally on one part of a split file; :data:`PAPER_RESULTS` holds the published numbers.
 
-Formats (spec ``original-question-engine.md`` §4.9, §6.7-§6.11):
+Formats (those of the published CRAFT dataset):
 
 * ``dataset.json``: list of videos ``{"simulation_id", "video_path", "questions": {"info", "questions": [...]}}``;
   each question has ``program`` (node list with ``value_inputs``; ``_output`` is ignored), ``answer`` (raw JSON:
@@ -39,7 +39,7 @@ from .annotations import Annotations, index_json_object, open_annotations
 from .answers import answers_agree, normalise_answer
 from .categories import CATEGORIES, FAMILIES, QUESTION_TYPES, category_of, family_of, question_type_of
 from .check import Mismatch, Tally, VerifyError, VerifyReport, verify_dataset
-from .fixture import build_dataset, minimal_records
+from .fixture import build_dataset
 from .formats import (
     PathLike,
     Question,
@@ -55,6 +55,7 @@ from .formats import (
     read_split,
 )
 from .paper import PAPER_HUMANS, PAPER_RESULTS, PaperRow
+from .records import minimal_records, question_record, template_id_of, video_record
 from .scoring import Score, ScoreReport, paper_table, score
 
 __all__ = [
@@ -79,6 +80,9 @@ __all__ = [
     "family_of",
     "index_json_object",
     "minimal_records",
+    "question_record",
+    "template_id_of",
+    "video_record",
     "normalise_answer",
     "open_annotations",
     "paper_table",

@@ -10,7 +10,8 @@ from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import IO, Any
 
-from ..errors import CraftError
+from ..errors import CraftError, DatasetFileError, SimulationFileError
+from ..files import MAX_JSON_DEPTH, parse_json
 from ..simulation import Simulation
 from .formats import PathLike, _read_json
 
@@ -39,8 +40,8 @@ class _Stream:
         try:
             new = self.decoder.decode(data, final=not data)
         except UnicodeDecodeError as err:
-            raise CraftError(f"{self.where}: not UTF-8 text near byte {self.base + len(self.text)}: "
-                             f"{err.reason}") from None
+            raise DatasetFileError(f"{self.where}: not UTF-8 text near byte {self.base + len(self.text)}: "
+                                   f"{err.reason}") from None
         if not data:
             self.eof = True
         consumed = self.text[: self.i]
@@ -65,7 +66,7 @@ class _Stream:
         c = self.peek()
         if not c or c not in chars:
             found = repr(c) if c else "the end of the file (truncated?)"
-            raise CraftError(f"{self.where}: expected {what} at byte {self.offset(self.i)}, found {found}")
+            raise DatasetFileError(f"{self.where}: expected {what} at byte {self.offset(self.i)}, found {found}")
         self.i += 1
         return c
 
@@ -78,8 +79,12 @@ class _Stream:
             except json.JSONDecodeError as err:
                 if self.more():
                     continue
-                raise CraftError(f"{self.where}: not valid JSON at byte {self.offset(err.pos)}: {err.msg} "
-                                 "(the file may be truncated)") from None
+                raise DatasetFileError(f"{self.where}: not valid JSON at byte {self.offset(err.pos)}: {err.msg} "
+                                       "(the file may be truncated)", path=self.where) from None
+            except RecursionError:
+                raise DatasetFileError(f"{self.where}: the value at byte {self.offset(self.i)} is nested deeper than "
+                                       f"{MAX_JSON_DEPTH} levels; allowed: at most {MAX_JSON_DEPTH}",
+                                       path=self.where) from None
             if end == len(self.text) and self.more():
                 continue  # a number may go on in the next chunk
             start = self.offset(self.i)
@@ -106,12 +111,12 @@ def index_json_object(path: PathLike, chunk_size: int = 1 << 24) -> dict[str, tu
             s.expect(":", "':'")
             _, start, end = s.value()
             if key in spans:
-                raise CraftError(f"{where}: key {key!r} appears twice")
+                raise DatasetFileError(f"{where}: key {key!r} appears twice")
             spans[key] = (start, end)
             if s.expect(",}", "',' or '}'") == "}":
                 break
         if s.peek():
-            raise CraftError(f"{where}: extra data after the top-level object at byte {s.offset(s.i)}")
+            raise DatasetFileError(f"{where}: extra data after the top-level object at byte {s.offset(s.i)}")
     return spans
 
 
@@ -134,9 +139,10 @@ class Annotations:
     @classmethod
     def from_mapping(cls, data: Mapping[str, Any], name: str = "annotations") -> Annotations:
         if not isinstance(data, Mapping):
-            raise CraftError(f"{name}: expected an object mapping video ids to simulations, "
-                             f"found {type(data).__name__}")
-        return cls(name, lambda key: data[key], (str(k) for k in data))
+            raise DatasetFileError(f"{name}: expected an object mapping video ids to simulations, "
+                                   f"found {type(data).__name__}")
+        keys = {str(k): k for k in data}
+        return cls(name, lambda key: data[keys[key]], keys)
 
     @classmethod
     def open(cls, path: PathLike, chunk_size: int = 1 << 24) -> Annotations:
@@ -144,20 +150,21 @@ class Annotations:
         if p.is_dir():
             files = {f.stem: f for f in sorted(p.rglob("*.json")) if f.stem.isdigit()}
             if not files:
-                raise CraftError(f"{p}: directory holds no <id6>.json simulation files")
+                raise DatasetFileError(f"{p}: directory holds no <id6>.json simulation files")
             return cls(str(p), lambda key: _read_json(files[key], "simulation"), files)
         if not p.exists():
-            raise CraftError(f"{p}: no such file (annotations)")
+            raise DatasetFileError(f"{p}: no such file (annotations)")
         try:
             spans = index_json_object(p, chunk_size)
         except OSError as err:
-            raise CraftError(f"{p}: cannot read ({err.strerror})") from None
+            raise DatasetFileError(f"{p}: cannot read ({err.strerror})") from None
 
         def load(key: str) -> Any:
             start, end = spans[key]
             with open(p, "rb") as fh:
                 fh.seek(start)
-                return json.loads(fh.read(end - start))
+                return parse_json(fh.read(end - start), f"{p}: simulation {key!r} (bytes {start}-{end})",
+                                  "simulation", error=DatasetFileError, path=str(p))
 
         return cls(str(p), load, spans)
 
@@ -181,7 +188,7 @@ class Annotations:
     def raw(self, key: str) -> Any:
         """The parsed JSON of one simulation."""
         if key not in self._set:
-            raise CraftError(f"{self.name}: no simulation for video {key!r}")
+            raise DatasetFileError(f"{self.name}: no simulation for video {key!r}")
         return self._loader(key)
 
     def simulation(self, key: str) -> Simulation:
@@ -193,11 +200,13 @@ class Annotations:
             return self._cache[key]
         data = self.raw(key)
         if not isinstance(data, Mapping):
-            raise CraftError(f"{self.name}[{key!r}]: expected a simulation object, found {type(data).__name__}")
+            raise SimulationFileError(f"{self.name}[{key!r}]: expected a simulation object, found "
+                                      f"{type(data).__name__}")
         try:
             sim = load_simulation(data)
         except CraftError as err:
-            raise CraftError(f"{self.name}[{key!r}]: {str(err).removeprefix('<dict>: ')}") from None
+            raise SimulationFileError(f"{self.name}[{key!r}]: {str(err).removeprefix('<dict>: ')}",
+                                      path=None if self.name == "annotations" else self.name) from None
         self._cache[key] = sim
         if len(self._cache) > self._cache_size:
             self._cache.popitem(last=False)

@@ -7,7 +7,7 @@ from ..templates import templates
 
 #: The paper's columns: C (cause, enable, prevent), CF (counterfactual), D (descriptive).
 FAMILIES: tuple[str, ...] = ("C", "CF", "D")
-#: The paper's sub-categories, in table order (README §5).
+#: The paper's sub-categories, in table order (docs/verify.md).
 CATEGORIES: tuple[str, ...] = ("D/2Q", "D/N-V", "D/N-T", "D/C", "D/S", "D/C-T", "D/TO", "CF/O", "CF/N", "C/A", "C/N")
 #: Question types (the capitalised template file stems of ``question_type``).
 QUESTION_TYPES: tuple[str, ...] = ("Descriptive", "Counterfactual", "Cause", "Enable", "Prevent")
@@ -30,7 +30,7 @@ def family_of(template_id: str) -> str:
 
 
 def category_of(template_id: str) -> str:
-    """The paper's sub-category of a template (README §5), e.g. ``category_of("descriptive_22") == "D/C"``."""
+    """The paper's sub-category of a template (docs/verify.md), e.g. ``category_of("descriptive_22") == "D/C"``."""
     family, i = _split_template_id(template_id)
     if family == "descriptive":
         return next(code for lo, hi, code in _DESCRIPTIVE_RANGES if lo <= i <= hi)

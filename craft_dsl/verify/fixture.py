@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 from ..program import to_json
 from ..simulation import Simulation
 from ..templates import first_instances, question_text
+from .records import question_record, video_record
 
 
 def build_dataset(
@@ -37,42 +37,12 @@ def build_dataset(
         video_path = f"./videos/sid_{sid}/{id6}.mpg"
         records: list[dict[str, Any]] = []
         for template, params, program, answer in first_instances(sim, include_dropped):
-            records.append({
-                "video_filename": video_path, "video_index": video_index, "video": id6,
-                "question": question_text(template.id, params),
-                "program": program.to_nodes(outputs=sim),
-                "answer": to_json(answer, original=True),
-                "template_filename": f"{template.family}.json", "question_family_index": template.index,
-                "question_index": len(records),
-            })
+            records.append(question_record(
+                video_filename=video_path, video_index=video_index, question=question_text(template.id, params),
+                program=program.to_nodes(outputs=sim), answer=to_json(answer, original=True),
+                family=template.family, family_index=template.index, question_index=len(records)))
         data = simulation_dict(sim)
         data["original_video_output"]["video_filename"] = video_path
         annotations[id6] = data
-        dataset.append({"simulation_id": sid, "video_path": video_path,
-                        "questions": {"info": {"video_filename": video_path, "video_index": video_index},
-                                      "questions": records}})
+        dataset.append(video_record(sid, video_path, video_index, records))
     return dataset, annotations
-
-
-def minimal_records(dataset: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """``dataset_minimal.json`` records (spec §6.11) of a ``dataset.json`` list, as the released data has them:
-    answers as strings, colours and shapes capitalised, ``answer_type`` and ``question_type`` filled in."""
-    from ..vocabulary import COLORS, SHAPES, SIZES
-
-    out: list[dict[str, Any]] = []
-    for video in dataset:
-        sid = str(video.get("simulation_id", "0"))
-        for q in video["questions"]["questions"]:
-            answer = str(q["answer"])
-            kind = ("Boolean" if answer in ("True", "False") else "Shape" if answer in SHAPES
-                    else "Color" if answer in COLORS else "Size" if answer in SIZES else "Count")
-            stem = Path(q["template_filename"]).stem
-            out.append({
-                "question": q.get("question", ""), "answer": answer.capitalize(), "answer_type": kind,
-                "template_filename": q["template_filename"], "video_file_path": video.get("video_path", ""),
-                "video_index": q["video_index"], "question_index": q["question_index"],
-                "question_family_index": q["question_family_index"],
-                "template_id": f"{stem}_{q['question_family_index']}", "simulation_id": sid,
-                "question_type": stem.capitalize(),
-            })
-    return out

@@ -15,7 +15,7 @@ class PaperRow:
     hard: tuple[float, float, float, float]
 
 
-#: The CRAFT paper's test accuracies (spec ``paper-results.md``), columns (C, CF, D, All).
+#: The CRAFT paper's test accuracies (Ates et al., tables of results), columns (C, CF, D, All).
 PAPER_RESULTS: tuple[PaperRow, ...] = (
     PaperRow("heuristic", "Random", (5.95, 5.25, 5.09, 5.24), (5.37, 4.62, 5.08, 4.98)),
     PaperRow("heuristic", "AT-Random", (36.67, 44.34, 33.95, 37.47), (33.67, 46.06, 34.16, 37.52)),

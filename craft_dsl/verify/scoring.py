@@ -3,16 +3,29 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from array import array
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..errors import CraftError
+import numpy as np
+
+from ..errors import CraftError, PredictionsFileError
 from ..templates import DROPPED, templates
-from .answers import answers_agree
+from .answers import answer_problem, answers_agree
 from .categories import CATEGORIES, FAMILIES, QUESTION_TYPES, category_of
-from .formats import PathLike, Question, parse_predictions, parse_questions, read_predictions, read_questions
+from .formats import (
+    PathLike,
+    PredictionEntries,
+    Question,
+    parse_questions,
+    read_questions,
+    repeated_prediction,
+)
 from .paper import PAPER_HUMANS, PAPER_RESULTS
+
+#: At most this many predictions for unknown questions are listed (the smallest keys); all are counted.
+UNKNOWN_LISTED = 1000
 
 
 @dataclass
@@ -41,7 +54,9 @@ class ScoreReport:
     per_type: dict[str, Score] = field(default_factory=dict)
     per_template: dict[str, Score] = field(default_factory=dict)
     predicted: int = 0
+    #: The smallest (at most UNKNOWN_LISTED) keys predicted that are not questions; ``unknown_count`` counts all.
     unknown_predictions: list[tuple[int, int]] = field(default_factory=list)
+    unknown_count: int = 0
     outside_split: int = 0
     split_not_in_questions: int = 0
     dropped_templates: int = 0
@@ -72,6 +87,7 @@ class ScoreReport:
             "questions": self.total, "predicted": self.predicted, "missing": self.missing,
             "coverage": self.coverage,
             "unknown_predictions": [f"{v}_{q}" for v, q in self.unknown_predictions],
+            "unknown_count": self.unknown_count,
             "outside_split": self.outside_split, "split_not_in_questions": self.split_not_in_questions,
             "dropped_templates": self.dropped_templates,
             "accuracy": {k: s.accuracy for k, s in self.columns.items()},
@@ -85,10 +101,10 @@ class ScoreReport:
         """A plain-text report; ``compare_paper`` ("easy" or "hard") adds the paper's rows."""
         lines = [f"scored {self.total} questions: {self.predicted} predicted "
                  f"({_pct(self.coverage)} % coverage), {self.missing} without prediction (counted wrong)"]
-        if self.unknown_predictions:
+        if self.unknown_count:
             shown = ", ".join(f"{v}_{q}" for v, q in self.unknown_predictions[:5])
-            more = " ..." if len(self.unknown_predictions) > 5 else ""
-            lines.append(f"{len(self.unknown_predictions)} prediction(s) for unknown questions ignored: {shown}{more}")
+            more = " ..." if self.unknown_count > 5 else ""
+            lines.append(f"{self.unknown_count} prediction(s) for unknown questions ignored: {shown}{more}")
         if self.outside_split:
             lines.append(f"{self.outside_split} prediction(s) for questions outside the selected split ignored")
         if self.split_not_in_questions:
@@ -141,6 +157,65 @@ def paper_table(split: str, report: ScoreReport | None = None, label: str = "you
     return "\n".join(lines)
 
 
+class _UnknownKeys:
+    """Keys predicted for questions the questions file does not have, 8 bytes each (a 200 MB predictions file
+    can hold ten million of them): packed ``video_index << 32 | question_index`` where both fit, else in a set."""
+
+    def __init__(self) -> None:
+        self.packed = array("q")
+        self.wide: set[tuple[int, int]] = set()
+
+    def add(self, key: tuple[int, int]) -> None:
+        v, q = key
+        if v < (1 << 31) and q < (1 << 32):
+            self.packed.append(v << 32 | q)
+        elif key in self.wide:
+            raise _Repeated(key)
+        else:
+            self.wide.add(key)
+
+    def finish(self) -> tuple[int, list[tuple[int, int]]]:
+        """(how many, the smallest UNKNOWN_LISTED); raises _Repeated for a key given twice."""
+        keys = np.frombuffer(self.packed, dtype=np.int64) if self.packed else np.zeros(0, dtype=np.int64)
+        keys.sort()
+        same = np.flatnonzero(keys[1:] == keys[:-1])
+        if len(same):
+            k = int(keys[same[0]])
+            raise _Repeated((k >> 32, k & 0xFFFFFFFF))
+        listed = [(int(k) >> 32, int(k) & 0xFFFFFFFF) for k in keys[:UNKNOWN_LISTED]]
+        listed = sorted(listed + sorted(self.wide)[:UNKNOWN_LISTED])[:UNKNOWN_LISTED]
+        return len(keys) + len(self.wide), listed
+
+
+class _Repeated(Exception):
+    def __init__(self, key: tuple[int, int]) -> None:
+        self.key = key
+
+
+def _predictions(predictions: Any) -> tuple[Iterator[tuple[tuple[int, int], Any, Any]], Any]:
+    """(key, answer, label) of every prediction, from a path (streamed), parsed JSON, or {(v, q): answer}; and
+    the function that turns a label into the prediction's place for messages."""
+    if isinstance(predictions, Mapping) and predictions and all(isinstance(k, tuple) for k in predictions):
+        return _tuple_keyed(predictions), lambda label: f"predictions: key {label!r}"
+    entries = PredictionEntries(predictions)
+    return entries.answers(), entries.where
+
+
+def _tuple_keyed(predictions: Mapping[tuple[int, int], Any]) -> Iterator[tuple[tuple[int, int], Any, Any]]:
+    for key, answer in predictions.items():
+        problem = answer_problem(answer)
+        if problem is not None:
+            raise PredictionsFileError(f"predictions: key {key!r}: {problem}")
+        yield key, answer, key
+
+
+def _repeated_error(predictions: Any, key: tuple[int, int]) -> PredictionsFileError:
+    """The error for a question predicted twice, naming both entries (a second pass over the predictions)."""
+    items, where = _predictions(predictions)
+    places = [where(label) for k, _, label in items if k == key][:2]
+    return repeated_prediction(key, places[0], places[-1])
+
+
 def score(
     questions: PathLike | Sequence[Any],
     predictions: PathLike | Mapping[Any, Any] | Sequence[Any],
@@ -149,37 +224,53 @@ def score(
     """Score predictions against the recorded answers.
 
     ``questions``: a ``dataset_minimal.json`` or ``dataset.json`` path, a parsed list, or :class:`Question`
-    records. ``predictions``: a path, ``{(video_index, question_index) or "v_q": answer}`` or a list of
-    ``{video_index, question_index, answer}``. ``split``: keys to score (e.g. :func:`read_split`); other
-    questions are ignored. A question without a prediction counts as wrong (and as ``missing``); a prediction
-    for a question not in ``questions`` is listed in ``unknown_predictions`` and ignored.
+    records. ``predictions``: a path (``.json`` or ``.jsonl``, read as a stream: memory grows with the questions
+    and 8 bytes per prediction for an unknown question, not with the file), ``{(video_index, question_index) or
+    "v_q": answer}`` or a list of ``{video_index, question_index, answer}``. ``split``: keys to score (e.g.
+    :func:`read_split`); other questions are ignored. A question without a prediction counts as wrong (and as
+    ``missing``); a prediction for a question not in ``questions`` is counted in ``unknown_count`` (the first
+    keys listed in ``unknown_predictions``) and ignored. A question predicted twice is an error naming both.
     """
     if isinstance(questions, (str, os.PathLike)):
         qs = read_questions(questions)
     else:
         items = list(questions)
         qs = items if items and all(isinstance(q, Question) for q in items) else parse_questions(items)
-    if isinstance(predictions, (str, os.PathLike)):
-        preds = read_predictions(predictions)
-    elif isinstance(predictions, Mapping) and predictions and all(isinstance(k, tuple) for k in predictions):
-        preds = dict(predictions)
-    else:
-        preds = parse_predictions(predictions)
-    report = ScoreReport()
-    known = {q.key for q in qs}
+    position = {q.key: i for i, q in enumerate(qs)}
+    answered = bytearray(len(qs))
+    correct = bytearray(len(qs))
+    unknown = _UnknownKeys()
+    get, packed = position.get, unknown.packed.append
+    try:
+        for key, answer, _label in _predictions(predictions)[0]:
+            i = get(key)
+            if i is None:
+                video, question = key
+                if video < 0x80000000 and question < 0x100000000:  # _UnknownKeys.add inlined: it runs ten million
+                    packed(video << 32 | question)  # times for a 200 MB file
+                else:
+                    unknown.add(key)
+            elif answered[i]:
+                raise _Repeated(key)
+            else:
+                answered[i] = 1
+                correct[i] = answers_agree(answer, qs[i].answer)
+        report = ScoreReport()
+        report.unknown_count, report.unknown_predictions = unknown.finish()
+    except _Repeated as rep:
+        raise _repeated_error(predictions, rep.key) from None
     selected = set(split) if split is not None else None
     if selected is not None:
-        report.split_not_in_questions = len(selected - known)
-    report.unknown_predictions = sorted(k for k in preds if k not in known)
-    for q in qs:
+        report.split_not_in_questions = len(selected - position.keys())
+    for i, q in enumerate(qs):
         if selected is not None and q.key not in selected:
-            report.outside_split += q.key in preds
+            report.outside_split += answered[i]
             continue
         if q.template_id in DROPPED:
             report.dropped_templates += 1
-        if q.key in preds:
+        if answered[i]:
             report.predicted += 1
-            report._add(q, answers_agree(preds[q.key], q.answer), False)
+            report._add(q, bool(correct[i]), False)
         else:
             report._add(q, False, True)
     return report

@@ -28,6 +28,8 @@ import networkx as nx
 from ..dataset.folder import DatasetFolder
 from ..errors import CraftError
 from ..simulation import Event, Simulation
+from ..vocabulary import DEFAULT_ENGINE
+from ..world import DEFAULT_STEPS
 
 #: Short event labels drawn in the graph.
 EVENT_LABELS = {"Start": "S", "End": "E", "Collision": "C", "TouchStart": "TS", "TouchEnd": "TE", "EnterBasket": "B"}
@@ -226,8 +228,8 @@ class ViewerData:
 
         stats = self.folder.instance_stats(video_index) or {}
         config = self.folder.config or {}
-        sim = simulate(int(stats["scene"]), seed=int(stats["simulation_seed"]), steps=int(config.get("steps", 600)),
-                       engine=str(config.get("engine", "pymunk")))
+        sim = simulate(int(stats["scene"]), seed=int(stats["simulation_seed"]),
+                       steps=int(config.get("steps", DEFAULT_STEPS)), engine=str(config.get("engine", DEFAULT_ENGINE)))
         recorded = self.simulation(video_index)
         if sorted(map(_event_key, sim.events)) != sorted(map(_event_key, recorded.events)):
             raise ViewerError(f"video {video_index}: the re-simulation's events differ from the recorded ones "

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..simulation import Event, ObjectState, SimObject, Simulation, Trajectory
-from ..world import WorldSpec, assign_uids, make_dynamic, make_static
+from craft_dsl.simulation import Event, ObjectState, SimObject, Simulation, Trajectory
+from craft_dsl.world import WorldSpec, assign_uids, make_dynamic, make_static
 
 
 def synthetic_world() -> WorldSpec:

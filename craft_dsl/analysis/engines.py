@@ -4,7 +4,7 @@ For every scene and seed, the same WorldSpec is simulated with two engines (by d
 Every template is instantiated on the first engine's simulation (:func:`craft_dsl.templates.instantiate`,
 first valid binding) and the *same* program (same parameters) is run on the second engine's simulation;
 the two answers agree if they are equal (INVALID counts as an answer). Per scene, the outcome statistics
-of :mod:`craft_dsl.physics.stats` are computed for both engines side by side.
+of :mod:`craft_dsl.analysis.scene_stats` are computed for both engines side by side.
 
 >>> cmp = compare_engines([3], range(2))          # doctest: +SKIP
 >>> print(format_comparison(cmp, markdown=True))  # doctest: +SKIP
@@ -17,11 +17,14 @@ import time
 from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, cast
+from pathlib import Path
+from typing import Any
 
 from ..templates import instantiate, templates
 from ..types import INVALID
-from .stats import SceneStats, scene_stats, text_table
+from ..vocabulary import ENGINES
+from ..world import DEFAULT_STEPS
+from .scene_stats import SceneStats, scene_stats, text_table
 
 #: Template families, in the templates file's order.
 CATEGORIES = ("descriptive", "counterfactual", "cause", "enable", "prevent")
@@ -77,7 +80,7 @@ class TaskResult:
     """One (scene, seed): per template (asked, agreed, INVALID on B, the first engine's answer as text) and
     both engines' scene statistics."""
 
-    scene: int
+    scene: int | str | Path
     seed: int
     answers: dict[str, tuple[bool, bool, bool, str]]
     stats: tuple[SceneStats, SceneStats]
@@ -87,7 +90,7 @@ class TaskResult:
 @dataclass(frozen=True)
 class Comparison:
     engines: tuple[str, str]
-    scenes: tuple[int, ...]
+    scenes: tuple[int | str | Path, ...]
     seeds: tuple[int, ...]
     steps: int
     templates: tuple[TemplateRow, ...]
@@ -110,13 +113,13 @@ class Comparison:
         return self.categories()[-1].rate
 
 
-def compare_task(scene: int, seed: int, engines: tuple[str, str] = ("pymunk", "box2d"),
-                 steps: int = 600, perturb: float = 0.0) -> TaskResult:
+def compare_task(scene: int | str | Path, seed: int, engines: tuple[str, str] = (ENGINES[0], ENGINES[1]),
+                 steps: int = DEFAULT_STEPS, perturb: float = 0.0) -> TaskResult:
     """Simulate one (scene, seed) with both engines and compare every template's answer.
 
     ``perturb > 0``: the second run starts from the original's perturbation of the world (amount
     ``perturb``, perturbation seed = ``seed``) -- a chaos baseline when both engines are the same."""
-    from .live import get_engine, simulate
+    from ..physics.live import get_engine, simulate
 
     start = time.perf_counter()
     eng_a, eng_b = get_engine(engines[0]), get_engine(engines[1])
@@ -136,12 +139,13 @@ def compare_task(scene: int, seed: int, engines: tuple[str, str] = ("pymunk", "b
         answer_b = template.program(params).run(sim_b)
         answers[tid] = (True, same_answer(answer_a, answer_b), answer_b is INVALID, repr(answer_a))
     # scene_stats passes its scene to simulate(), which also takes the (perturbed) WorldSpec itself
-    stats = (scene_stats(scene, [seed], engine=eng_a, steps=steps),
-             replace(scene_stats(cast(int, sim_b.world_spec), [seed], engine=eng_b, steps=steps), scene=scene))
+    stats_a = scene_stats(scene, [seed], engine=eng_a, steps=steps)
+    stats = (stats_a,
+             replace(scene_stats(sim_b.world_spec, [seed], engine=eng_b, steps=steps), scene=stats_a.scene))
     return TaskResult(scene, seed, answers, stats, time.perf_counter() - start)
 
 
-def _task(args: tuple[int, int, tuple[str, str], int, float]) -> TaskResult:
+def _task(args: tuple[int | str | Path, int, tuple[str, str], int, float]) -> TaskResult:
     return compare_task(*args)
 
 
@@ -160,10 +164,10 @@ def merge_stats(rows: Sequence[SceneStats]) -> SceneStats:
 
 
 def compare_engines(
-    scenes: Iterable[int],
+    scenes: Iterable[int | str | Path],
     seeds: Iterable[int],
-    engines: tuple[str, str] = ("pymunk", "box2d"),
-    steps: int = 600,
+    engines: tuple[str, str] = (ENGINES[0], ENGINES[1]),
+    steps: int = DEFAULT_STEPS,
     jobs: int = 1,
     progress: Callable[[TaskResult, int, int], None] | None = None,
     perturb: float = 0.0,

@@ -5,17 +5,20 @@ from __future__ import annotations
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass
+from pathlib import Path
 
+from ..physics.engine import PhysicsEngine
+from ..physics.live import get_engine, simulate
 from ..vocabulary import COLLISION, ENTER_BASKET
-from .engine import PhysicsEngine
-from .live import get_engine, simulate
+from ..world import DEFAULT_STEPS, WorldSpec
 
 
 @dataclass(frozen=True)
 class SceneStats:
     """Averages over ``runs`` seeds of one scene."""
 
-    scene: int
+    #: The scene id, or the layout file's name.
+    scene: int | str
     runs: int
     dynamic_objects: float  # mean dynamic objects per run
     basket_share: float  # share of dynamic objects with an EnterBasket
@@ -29,8 +32,9 @@ class SceneStats:
         return self.basket_share == 0.0
 
 
-def scene_stats(scene: int, seeds: Iterable[int], engine: str | PhysicsEngine = "pymunk",
-                steps: int = 600) -> SceneStats:
+def scene_stats(scene: int | str | Path | WorldSpec, seeds: Iterable[int], engine: str | PhysicsEngine = "pymunk",
+                steps: int = DEFAULT_STEPS) -> SceneStats:
+    """Averages over ``seeds`` of a scene (an id, a layout file, or one concrete WorldSpec)."""
     eng = get_engine(engine)
     runs = dyn = basket = ground = events = 0
     start = time.perf_counter()
@@ -45,7 +49,9 @@ def scene_stats(scene: int, seeds: Iterable[int], engine: str | PhysicsEngine = 
     elapsed = time.perf_counter() - start
     if runs == 0:
         raise ValueError("scene_stats needs at least one seed")
-    return SceneStats(scene, runs, dyn / runs, basket / max(dyn, 1), ground / max(dyn, 1), events / runs,
+    label = scene if isinstance(scene, int) else Path(scene).stem if isinstance(scene, (str, Path)) else \
+        (scene.scene_id or 0)
+    return SceneStats(label, runs, dyn / runs, basket / max(dyn, 1), ground / max(dyn, 1), events / runs,
                       runs / elapsed if elapsed > 0 else float("inf"))
 
 

@@ -14,14 +14,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from .errors import CraftError
+from ..errors import CraftError
+from ..progress import show_progress
 
 EXIT_MISMATCH = 1
 EXIT_BAD_INPUT = 2
 
 
 def cmd_verify(args: argparse.Namespace) -> int:
-    from .verify import open_annotations, read_dataset, verify_dataset
+    from . import open_annotations, read_dataset, verify_dataset
 
     if args.max_mismatches is not None and args.max_mismatches < 0:
         raise CraftError(f"--max-mismatches must be 0 or more, not {args.max_mismatches}")
@@ -29,7 +30,7 @@ def cmd_verify(args: argparse.Namespace) -> int:
     annotations = open_annotations(args.annotations)
     progress = None
     bar: Any = None
-    if args.progress:
+    if show_progress(args):
         from tqdm import tqdm
 
         bar = tqdm(total=len(questions), unit="q", file=sys.stderr)
@@ -47,18 +48,17 @@ def cmd_verify(args: argparse.Namespace) -> int:
 
 
 def cmd_score(args: argparse.Namespace) -> int:
-    from .verify import read_predictions, read_questions, read_split, score
+    from . import read_questions, read_split, score
 
     if args.part and not args.split:
         raise CraftError("--part needs --split FILE")
     questions = read_questions(args.questions)
-    predictions = read_predictions(args.predictions)
     keys = read_split(args.split, args.part or "test") if args.split else None
-    report = score(questions, predictions, split=keys)
+    report = score(questions, args.predictions, split=keys)  # the predictions file is read as a stream
     if args.json:
         out = report.to_json()
         if args.compare_paper:
-            from .verify import PAPER_HUMANS, PAPER_RESULTS
+            from . import PAPER_HUMANS, PAPER_RESULTS
 
             cols = ("C", "CF", "D", "All")
             out["paper"] = {
@@ -76,9 +76,9 @@ def cmd_score(args: argparse.Namespace) -> int:
 
 
 def cmd_verify_fixture(args: argparse.Namespace) -> int:
-    from .physics import simulate
-    from .recorded import write_json_atomic
-    from .verify import build_dataset, minimal_records
+    from ..physics import simulate
+    from ..recorded import write_json_atomic
+    from . import build_dataset, minimal_records
 
     sims = []
     for spec in args.sim or ["1:0", "3:0"]:
@@ -106,14 +106,16 @@ def add_commands(subparsers: Any) -> None:
     ver.add_argument("--json", action="store_true", help="print the report as JSON")
     ver.add_argument("--max-mismatches", type=int, default=None, metavar="N",
                      help="list at most N mismatches and N errors (default: 20 in text, all in JSON)")
-    ver.add_argument("--progress", action="store_true", help="show a progress bar on stderr")
+    ver.add_argument("--progress", action="store_true", help="a progress bar even when stderr is no terminal")
+    ver.add_argument("--quiet", action="store_true", help="no progress bar")
     ver.set_defaults(func=cmd_verify)
 
     sc = subparsers.add_parser("score", help="score predictions per paper category (C, CF, D, sub-categories)")
     sc.add_argument("--questions", required=True, help="dataset_minimal.json or dataset.json")
     sc.add_argument("--predictions", required=True,
                     help='predictions JSON: {"<video_index>_<question_index>": answer} or a list of '
-                         '{"video_index", "question_index", "answer"}')
+                         '{"video_index", "question_index", "answer"}, or JSON Lines (.jsonl) of such records; '
+                         'read as a stream')
     sc.add_argument("--split", help="split_info_random.json or split_info_hard.json: score one part only")
     sc.add_argument("--part", help="part of the split to score (train, validation, test; default test)")
     sc.add_argument("--json", action="store_true", help="print the report as JSON")
@@ -133,12 +135,7 @@ def add_commands(subparsers: Any) -> None:
 
 
 def run(argv: Sequence[str]) -> int:
-    """Run one of these commands without the main CLI (errors → message on stderr, exit code 2)."""
-    parser = argparse.ArgumentParser(prog="craft-dsl")
-    add_commands(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(list(argv))
-    try:
-        return int(args.func(args))
-    except CraftError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return EXIT_BAD_INPUT
+    """Run one of these commands as ``craft-dsl`` does (errors: a message on stderr, exit code 2)."""
+    from ..cli import main
+
+    return main(list(argv))

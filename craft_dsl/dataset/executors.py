@@ -1,0 +1,275 @@
+"""Where the videos are computed: in this process, in local worker processes, or on a Dask cluster.
+
+Every executor runs :func:`craft_dsl.dataset.instance.run_instance` on tasks and hands each
+:class:`~craft_dsl.dataset.instance.InstanceResult` to a callback in the main process, in whatever order they
+finish; results are bytes, so the output does not depend on the executor or the number of workers. At most a
+few tasks per worker are queued at any time, so an interruption drops little work.
+
+* :class:`LocalExecutor` (the default, no extra): ``workers`` processes started with ``spawn``. They ignore
+  Ctrl-C (the main process stops them), die with the main process (Linux ``PR_SET_PDEATHSIG``; elsewhere a
+  watchdog thread notices the parent is gone within a second), and a worker that dies is replaced, its video
+  reported as failed.
+* :class:`DaskExecutor` (the ``dask`` extra): tasks submitted to a ``distributed`` scheduler
+  (``tcp://HOST:PORT``); the scheduler re-runs the tasks of a worker that dies on another worker.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+from collections import deque
+from collections.abc import Callable, Iterable
+from multiprocessing.connection import Connection, wait
+from typing import Any, Protocol
+
+from ..errors import CraftError
+from .instance import InstanceResult, InstanceTask, run_instance
+
+OnResult = Callable[[InstanceResult], None]
+#: (instance id, error message) of a task that raised.
+Failure = tuple[int, str]
+#: Tasks queued per worker beyond the one it runs.
+QUEUED_PER_WORKER = 1
+
+
+class Executor(Protocol):
+    """Runs tasks, calls ``on_result`` in the calling thread for each finished one, returns the failures."""
+
+    description: str
+
+    def run(self, tasks: Iterable[InstanceTask], on_result: OnResult) -> list[Failure]: ...
+
+
+def _failure(task_id: int, err: BaseException) -> Failure:
+    return (task_id, f"{type(err).__name__}: {err}")
+
+
+# -- local ------------------------------------------------------------------------------------------------------
+
+
+def _die_with_parent(parent: int) -> None:
+    """Make this process end when ``parent`` does (see the module docstring)."""
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+
+    def watch() -> None:
+        import time
+
+        while True:
+            if os.getppid() != parent:
+                os._exit(1)
+            time.sleep(1.0)
+
+    if os.getppid() != parent:
+        os._exit(1)
+    threading.Thread(target=watch, daemon=True).start()
+
+
+def _worker_main(conn: Connection, parent: int) -> None:
+    """A local worker: run the tasks received on ``conn`` until it closes."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _die_with_parent(parent)
+    while True:
+        try:
+            task = conn.recv()
+        except (EOFError, OSError):
+            return
+        if task is None:
+            return
+        try:
+            message: tuple[Any, ...] = ("ok", run_instance(task))
+        except Exception as err:  # noqa: BLE001 - reported to the main process, which goes on with the others
+            message = ("error", *_failure(task.instance_id, err))
+        try:
+            conn.send(message)
+        except (EOFError, OSError):
+            return
+
+
+class _Worker:
+    def __init__(self, ctx: Any) -> None:
+        self.conn, child = ctx.Pipe()
+        self.process = ctx.Process(target=_worker_main, args=(child, os.getpid()), daemon=True,
+                                   name="craft-dsl generate worker")
+        self.process.start()
+        child.close()
+        self.queued: deque[InstanceTask] = deque()
+
+    def stop(self) -> None:
+        if self.process.is_alive():
+            self.process.kill()
+        self.process.join(timeout=5)
+        self.conn.close()
+
+
+class LocalExecutor:
+    """``workers`` local processes; with ``in_process`` (the default for one worker) the tasks run in this process
+    instead (no start-up cost, easy to debug). The command line always uses processes: a Ctrl-C that lands while
+    pymunk runs a Python collision callback would be printed and swallowed by cffi there, whereas the main process,
+    only waiting for results, stops at once."""
+
+    def __init__(self, workers: int = 1, in_process: bool | None = None) -> None:
+        if workers < 1:
+            raise CraftError(f"--workers {workers}: give at least 1")
+        self.workers = workers
+        self.in_process = workers == 1 if in_process is None else in_process
+        self.description = "this process" if self.in_process else \
+            f"{workers} local worker process{'es' if workers > 1 else ''}"
+
+    def run(self, tasks: Iterable[InstanceTask], on_result: OnResult) -> list[Failure]:
+        todo = deque(tasks)
+        if not todo:
+            return []
+        if self.in_process:
+            failures: list[Failure] = []
+            for task in todo:
+                try:
+                    result = run_instance(task)
+                except Exception as err:  # noqa: BLE001 - reported after the other instances ran
+                    failures.append(_failure(task.instance_id, err))
+                    continue
+                on_result(result)
+            return failures
+        return self._run_pool(todo, on_result)
+
+    def _start(self, ctx: Any, n: int) -> list[_Worker]:
+        # started with Ctrl-C ignored, which the spawned interpreters inherit: a Ctrl-C at any moment (even while
+        # they import) reaches only the main process, which stops them without a traceback from any of them
+        main = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+        try:
+            return [_Worker(ctx) for _ in range(n)]
+        finally:
+            if main:
+                signal.signal(signal.SIGINT, previous)
+
+    def _run_pool(self, todo: deque[InstanceTask], on_result: OnResult) -> list[Failure]:
+        ctx = multiprocessing.get_context("spawn")
+        failures: list[Failure] = []
+        workers = self._start(ctx, min(self.workers, len(todo)))
+        try:
+            for w in workers:
+                self._feed(w, todo)
+            while any(w.queued for w in workers):
+                by_conn = {w.conn: w for w in workers if w.queued}
+                for conn in wait(list(by_conn), timeout=1.0):
+                    w = by_conn[conn]
+                    try:
+                        message = w.conn.recv()
+                    except (EOFError, OSError):
+                        lost = w.queued.popleft()
+                        failures.append((lost.instance_id, f"worker process died (exit code {w.process.exitcode})"))
+                        todo.extendleft(reversed(w.queued))
+                        w.queued.clear()
+                        w.stop()
+                        workers[workers.index(w)] = replacement = self._start(ctx, 1)[0]
+                        self._feed(replacement, todo)
+                        continue
+                    w.queued.popleft()
+                    if message[0] == "ok":
+                        on_result(message[1])
+                    else:
+                        failures.append((message[1], message[2]))
+                    self._feed(w, todo)
+        finally:
+            for w in workers:
+                w.stop()
+        return sorted(failures)
+
+    @staticmethod
+    def _feed(w: _Worker, todo: deque[InstanceTask]) -> None:
+        while todo and len(w.queued) <= QUEUED_PER_WORKER:
+            task = todo.popleft()
+            w.conn.send(task)
+            w.queued.append(task)
+
+
+# -- Dask -------------------------------------------------------------------------------------------------------
+
+
+class DaskExecutor:
+    """Tasks on a Dask distributed cluster: ``scheduler`` is its address (``tcp://HOST:PORT``) or a
+    ``distributed.Client``. The workers need craft_dsl installed (same version) and one thread each
+    (``dask worker ADDRESS --nthreads 1``: the physics is pure Python and holds the GIL)."""
+
+    def __init__(self, scheduler: Any, timeout: float = 30.0) -> None:
+        try:
+            import distributed
+        except ImportError:
+            raise CraftError("--executor dask needs Dask's distributed scheduler: pip install 'craft-dsl[dask]'") \
+                from None
+        self._distributed = distributed
+        self._scheduler = scheduler
+        self._timeout = timeout
+        self.description = f"the Dask cluster at {scheduler}"
+
+    def _client(self) -> tuple[Any, bool]:
+        if isinstance(self._scheduler, self._distributed.Client):
+            return self._scheduler, False
+        try:
+            return self._distributed.Client(self._scheduler, timeout=self._timeout, set_as_default=False), True
+        except (OSError, TimeoutError) as err:
+            raise CraftError(f"--scheduler {self._scheduler}: cannot reach a Dask scheduler there ({err}); start "
+                             "one with 'dask scheduler' and workers with 'dask worker ADDRESS --nthreads 1'") from None
+
+    def run(self, tasks: Iterable[InstanceTask], on_result: OnResult) -> list[Failure]:
+        client, owned = self._client()
+        todo = deque(tasks)
+        failures: list[Failure] = []
+        futures: dict[Any, InstanceTask] = {}
+        try:
+            slots = max(1, sum(client.nthreads().values()) or 1) * (1 + QUEUED_PER_WORKER)
+
+            def submit() -> Any:
+                task = todo.popleft()
+                key = f"craft-dsl-instance-{task.seed}-{task.instance_id}-{int(task.questions)}{int(task.media)}"
+                fut = client.submit(run_instance, task, key=key, pure=False, retries=2)
+                futures[fut] = task
+                return fut
+
+            first = [submit() for _ in range(min(slots, len(todo)))]
+            if not first:
+                return failures
+            pending = self._distributed.as_completed(first, loop=client.loop)
+            for fut in pending:
+                task = futures.pop(fut)
+                try:
+                    result = fut.result()
+                except Exception as err:  # noqa: BLE001 - reported after the other instances ran
+                    failures.append(_failure(task.instance_id, err))
+                else:
+                    on_result(result)
+                fut.release()
+                if todo:
+                    pending.add(submit())
+        finally:
+            if futures:
+                client.cancel(list(futures), force=True)
+            if owned:
+                client.close(timeout=5)
+        return sorted(failures)
+
+
+def make_executor(kind: str, workers: int = 1, scheduler: Any = None) -> Executor:
+    """The executor named ``kind`` (``local``: always worker processes, or ``dask``), as the command line uses
+    it."""
+    if kind == "local":
+        return LocalExecutor(workers, in_process=False)
+    if kind == "dask":
+        if not scheduler:
+            raise CraftError("--executor dask needs --scheduler tcp://HOST:PORT (the address 'dask scheduler' "
+                             "prints)")
+        return DaskExecutor(scheduler)
+    raise CraftError(f"unknown executor {kind!r}; allowed: local, dask")
+
+
+__all__ = ["DaskExecutor", "Executor", "Failure", "LocalExecutor", "make_executor"]
