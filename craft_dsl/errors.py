@@ -201,3 +201,7 @@ class PerceptionError(CraftError):
     def __init__(self, message: str, problems: Sequence[Any] = ()) -> None:
         super().__init__(message)
         self.problems: list[Any] = list(problems)
+
+
+class ReaderError(CraftError):
+    """The video reader cannot read a video or a questions file (the message names the file and the defect)."""

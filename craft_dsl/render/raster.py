@@ -168,7 +168,11 @@ def _local_grid(x0: int, y0: int, w: int, h: int, ss: int, size: int, position: 
     return lx.astype(np.float32), ly.astype(np.float32)
 
 
-def _paint_static(img: np.ndarray, body: BodySpec, size: int) -> None:
+def static_body_layers(body: BodySpec, size: int = DEFAULT_SIZE
+                       ) -> tuple[tuple[int, int], list[tuple[np.ndarray, np.ndarray]]]:
+    """How the static layer draws one body: the (row, column) of its pixel window and, in drawing order, each
+    layer's coverage [h, w] (float32 in [0, 1]) with its RGB (the solid parts, then the basket's sensor). Painting a
+    layer is ``img = img * (1 - coverage) + coverage * rgb``. No layer when the body is outside the frame."""
     geom = body.geometry
     ppm = px_per_metre(size)
     ss = STATIC_SUPERSAMPLE
@@ -181,20 +185,26 @@ def _paint_static(img: np.ndarray, body: BodySpec, size: int) -> None:
     x1 = min(size, int(math.ceil(px1)) + 2)
     y1 = min(size, int(math.ceil(py1)) + 2)
     if x1 <= x0 or y1 <= y0:
-        return
+        return (y0, x0), []
     w, h = x1 - x0, y1 - y0
     lx, ly = _local_grid(x0, y0, w, h, ss, size, body.position, body.angle)
-    region = img[y0:y1, x0:x1]
     layers: list[tuple[np.ndarray, np.ndarray]] = []
     sd = _geometry_sd(geom, lx, ly, BASKET_LINE_WIDTH / 2)
     if sd is not None:
         layers.append((sd, _rgb(body.color)))
     if geom.sensor is not None:
         layers.append((_polygon_sd(_convex(geom.sensor), lx, ly), np.asarray(SENSOR_GREY, np.float32)))
-    for sd_layer, rgb in layers:
-        cov = _coverage(sd_layer, ppm * ss).reshape(h, ss, w, ss).mean(axis=(1, 3))[..., None]
-        region *= 1.0 - cov
-        region += cov * rgb
+    return (y0, x0), [(_coverage(sd_layer, ppm * ss).reshape(h, ss, w, ss).mean(axis=(1, 3)), rgb)
+                      for sd_layer, rgb in layers]
+
+
+def _paint_static(img: np.ndarray, body: BodySpec, size: int) -> None:
+    (y0, x0), layers = static_body_layers(body, size)
+    for cov, rgb in layers:
+        h, w = cov.shape
+        region = img[y0:y0 + h, x0:x0 + w]
+        region *= 1.0 - cov[..., None]
+        region += cov[..., None] * rgb
 
 
 def _world_bounds(body: BodySpec) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -344,6 +354,17 @@ def _shade(sprite: _DynamicSprite, x0: np.ndarray, y0: np.ndarray, cx: np.ndarra
     pupil *= -alpha  # (1 - pupil) * alpha
     base *= pupil[..., None]
     return alpha, base
+
+
+def shade_body(geometry: Geometry, color: str, cx: np.ndarray, cy: np.ndarray, angle: np.ndarray, x0: np.ndarray,
+               y0: np.ndarray, window: int, size: int = DEFAULT_SIZE) -> tuple[np.ndarray, np.ndarray]:
+    """How the renderer draws a dynamic body in pixel windows: coverage [n, w, w] and premultiplied colour
+    [n, w, w, 3] (float32) of a body with centre (``cx``, ``cy``) in pixels and ``angle``, in the windows whose
+    top-left pixels are (``x0``, ``y0``) (arrays of n). A frame's window is then ``dst * (1 - coverage) + colour``."""
+    sprite = _DynamicSprite(0, _rgb(color), window, tuple(_convex(p) for p in geometry.polygons),
+                            geometry.circle_radius)
+    return _shade(sprite, np.asarray(x0), np.asarray(y0), np.asarray(cx, dtype=np.float64),
+                  np.asarray(cy, dtype=np.float64), np.asarray(angle, dtype=np.float64), window, px_per_metre(size))
 
 
 # -- frames ---------------------------------------------------------------------------------------

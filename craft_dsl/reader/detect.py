@@ -1,0 +1,150 @@
+"""Per-frame detection of the coloured (dynamic) bodies of a CRAFT video.
+
+The renderer draws flat shapes in a known palette (``craft_dsl.vocabulary.COLOR_RGB``) over a white background with
+black statics and a light-grey basket sensor, so detection is colour arithmetic, not learning:
+
+1. **Colour lookup.** Every pixel of a half-resolution grid is classified by a lookup table over RGB quantised to 5
+   bits per channel: the nearest palette colour if within :data:`COLOR_RADIUS` (MPEG artefacts and antialiased
+   edges fall outside and stay unlabelled), built once. Where the static background is not a flat colour (the
+   antialiased rims of statics, whose greys would read as "gray") gray is not read.
+2. **Blobs.** Connected pieces of each body colour, per frame (one labelling call over the whole video), with their
+   grid area and centroid: a :class:`Blob`. Two touching bodies of one colour make one blob; the tracker
+   (:mod:`craft_dsl.reader.track`) notices it by its area.
+
+The sub-pixel measurement of a body (coverage-weighted centroid, eyes, angle) is done per object on full-resolution
+windows by :mod:`craft_dsl.reader.measure`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+from scipy import ndimage as ndi
+
+from ..render.raster import SENSOR_GREY
+from ..vocabulary import COLOR_RGB, COLORS
+
+#: A pixel takes a palette colour when within this RGB distance of it.
+COLOR_RADIUS = 60.0
+#: Palette rows: the 8 body colours (indices 0-7 as in ``COLORS``), then white, black and the sensor grey.
+PALETTE = np.array([COLOR_RGB[c] for c in COLORS] + [(255, 255, 255), (0, 0, 0), SENSOR_GREY], dtype=np.float32)
+WHITE, BLACK, SENSOR = len(COLORS), len(COLORS) + 1, len(COLORS) + 2
+GRAY = COLORS.index("gray")
+UNLABELLED = -1
+#: The grid step of the colour lookup (pixels).
+GRID = 2
+#: Blobs smaller than this many grid pixels are noise (pupil rims read as gray; the smallest body, a small circle,
+#: covers about 20).
+MIN_GRID_AREA = 4
+#: A colour's part of a piece holding other colours too counts only from this many grid pixels, or this share of
+#: the piece (the eyes' rims of a small body read as other colours).
+MIN_MIXED_AREA = 10
+MIN_MIXED_SHARE = 0.35
+_TIME_SEPARATE = np.zeros((3, 3, 3), dtype=bool)
+_TIME_SEPARATE[1] = ndi.generate_binary_structure(2, 2)
+
+
+@dataclass(frozen=True)
+class Blob:
+    """One connected piece of one body colour in one frame, on the detection grid (full-resolution pixel
+    coordinates: column x, row y; pixel centres at +0.5)."""
+
+    frame: int
+    color: int  # index into COLORS
+    area: float  # full-resolution pixels (grid pixels x GRID^2)
+    x: float
+    y: float
+    touches_edge: bool  # reaches the frame border (maybe cut off)
+    touches_static: bool = False  # a gray piece next to a static's rim, where gray is not read (maybe cut off)
+
+
+@lru_cache(maxsize=1)
+def color_table() -> np.ndarray:
+    """int8 [32768]: palette index (or -1) of each RGB quantised to 5 bits per channel (bin centres)."""
+    levels = (np.arange(32, dtype=np.float32) * 8 + 3.5)
+    r, g, b = np.meshgrid(levels, levels, levels, indexing="ij")
+    rgb = np.stack([r, g, b], axis=-1).reshape(-1, 3)
+    d2 = ((rgb[:, None, :] - PALETTE[None]) ** 2).sum(-1)
+    best = d2.argmin(1)
+    ok = d2[np.arange(best.size), best] <= COLOR_RADIUS ** 2
+    return np.where(ok, best, UNLABELLED).astype(np.int8)
+
+
+def lookup(pixels: np.ndarray) -> np.ndarray:
+    """Palette index (int8, -1 unlabelled) of uint8 RGB pixels [..., 3]."""
+    idx = ((pixels[..., 0] >> 3).astype(np.uint16) << 10) | ((pixels[..., 1] >> 3).astype(np.uint16) << 5)
+    idx |= pixels[..., 2] >> 3
+    out: np.ndarray = color_table()[idx]
+    return out
+
+
+def clean_background(background: np.ndarray) -> np.ndarray:
+    """bool [H, W]: background pixels of a flat colour (white or sensor grey), where a body colour can be read."""
+    flat = lookup(background)
+    return (flat == WHITE) | (flat == SENSOR)
+
+
+def grid_rims(background: np.ndarray) -> np.ndarray:
+    """bool [H/GRID, W/GRID]: grid pixels where the background is not flat (statics and their rims)."""
+    out: np.ndarray = ~clean_background(background)[::GRID, ::GRID]
+    return out
+
+
+def grid_labels(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
+    """Palette index per grid pixel, int8 [T, H/GRID, W/GRID]; body colours only over a clean background."""
+    labels = lookup(frames[:, ::GRID, ::GRID])
+    labels[labels >= WHITE] = UNLABELLED
+    labels[(labels == GRAY) & grid_rims(background)[None]] = UNLABELLED
+    return labels
+
+
+def blobs(labels: np.ndarray, rims: np.ndarray | None = None) -> list[Blob]:
+    """Connected pieces of each body colour in each frame of grid labels.
+
+    One labelling of every body-colour pixel; a piece holding two colours (bodies of different colours touching)
+    is split by colour. ``rims`` (bool [H/GRID, W/GRID]): where gray is not read; a gray piece next to them is
+    flagged as maybe cut off."""
+    mask = labels >= 0
+    pieces, n = ndi.label(mask, structure=_TIME_SEPARATE)
+    if n == 0:
+        return []
+    t, y, x = np.nonzero(pieces)
+    piece = pieces[t, y, x]
+    color = labels[t, y, x].astype(np.int64)
+    key = piece * WHITE + color  # one entry per (piece, colour)
+    counts = np.bincount(key)
+    # in a piece of several colours, a small part is the rim of an eye or of a neighbour, not a body
+    piece_total = np.bincount(piece)
+    owner = np.arange(counts.size) // WHITE
+    share = counts / np.maximum(piece_total[np.minimum(owner, piece_total.size - 1)], 1)
+    present = np.nonzero((counts >= MIN_GRID_AREA) & ((share >= MIN_MIXED_SHARE) | (counts >= MIN_MIXED_AREA)))[0]
+    if present.size == 0:
+        return []
+    sums_x = np.bincount(key, x)[present]
+    sums_y = np.bincount(key, y)[present]
+    sums_t = np.bincount(key, t)[present]
+    n_keys = counts.size
+    low_x = np.full(n_keys, 1 << 30)
+    np.minimum.at(low_x, key, x)
+    high_x = np.zeros(n_keys, dtype=np.int64)
+    np.maximum.at(high_x, key, x)
+    low_y = np.full(n_keys, 1 << 30)
+    np.minimum.at(low_y, key, y)
+    high_y = np.zeros(n_keys, dtype=np.int64)
+    np.maximum.at(high_y, key, y)
+    near_rim = np.zeros(counts.size, dtype=bool)
+    if rims is not None:
+        grown = ndi.binary_dilation(rims, iterations=2)
+        hits = key[grown[y, x] & (color == GRAY)]
+        near_rim[np.unique(hits)] = True
+    h, w = labels.shape[1:]
+    out: list[Blob] = []
+    for i, k in enumerate(present.tolist()):
+        c = counts[k]
+        edge = low_x[k] == 0 or low_y[k] == 0 or high_x[k] == w - 1 or high_y[k] == h - 1
+        out.append(Blob(int(round(sums_t[i] / c)), k % WHITE, float(c) * GRID * GRID, GRID * sums_x[i] / c + 0.5,
+                        GRID * sums_y[i] / c + 0.5, bool(edge), bool(near_rim[k])))
+    out.sort(key=lambda b: (b.frame, b.color, b.x))
+    return out

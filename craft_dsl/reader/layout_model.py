@@ -1,0 +1,177 @@
+"""A scene layout as a function of its random draws: the values a perception model estimates.
+
+A layout (``scenes/scene_NN.json``) names uniform and choice draws; everything else (constants, expressions of the
+variables) follows from them. :class:`LayoutModel` lists the draws in the sampler's order with their paths
+(``"variables.h"``, ``"static[2].angle"``, ``"dynamic[0].velocity[1]"``: the keys of
+:func:`craft_dsl.scenes.sample_values`) and builds the :class:`~craft_dsl.world.WorldSpec` of given draw values and
+dynamic attributes, in the sampler's creation order, so uniqueIDs are the simulator's own.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from functools import cached_property, lru_cache
+
+from ..scenes import Choice, Const, Expr, Quantity, SceneLayout, Uniform, load_scene
+from ..world import BodySpec, WorldSpec, assign_uids, make_dynamic, make_static
+
+#: (shape, colour, size) of one dynamic object.
+Attributes = tuple[str, str, str]
+
+
+@dataclass(frozen=True)
+class Draw:
+    """One random draw of a layout: its path, and its range (uniform) or options (choice)."""
+
+    path: str
+    quantity: Quantity
+
+    @property
+    def is_choice(self) -> bool:
+        return isinstance(self.quantity, Choice)
+
+
+def _scalar(q: Const | Expr, variables: Mapping[str, float]) -> float:
+    return q.value if isinstance(q, Const) else q.evaluate(variables)
+
+
+class LayoutModel:
+    """The layout of scene ``scene_id`` as a function of its draws."""
+
+    def __init__(self, scene_id: int) -> None:
+        self.scene_id = scene_id
+        self.layout: SceneLayout = load_scene(scene_id)
+        self._statics_cache: dict[tuple[tuple[str, float], ...], tuple[BodySpec, ...]] = {}
+
+    @cached_property
+    def draws(self) -> tuple[Draw, ...]:
+        return tuple(Draw(path, q) for path, q in self.layout.fields() if isinstance(q, Uniform | Choice))
+
+    def draws_of(self, prefix: str) -> tuple[Draw, ...]:
+        return tuple(d for d in self.draws if d.path.startswith(prefix))
+
+    @cached_property
+    def static_paths(self) -> tuple[str, ...]:
+        """Draws that move a static element (the basket included): the variables they read and their own."""
+        used: set[str] = set()
+        for path, q in self.layout.fields():
+            if path.startswith(("basket", "static")):
+                used.add(path)
+                used |= {f"variables.{n}" for n in _names(q)}
+        # variables read by used variables
+        changed = True
+        while changed:
+            changed = False
+            for name, q in self.layout.variables.items():
+                if f"variables.{name}" in used:
+                    for n in _names(q):
+                        if f"variables.{n}" not in used:
+                            used.add(f"variables.{n}")
+                            changed = True
+        return tuple(d.path for d in self.draws if d.path in used)
+
+    def evaluate(self, values: Mapping[str, float]) -> dict[str, float]:
+        """Every field's number given the draws in ``values`` (missing draws: the middle of their range, the first
+        option)."""
+        variables: dict[str, float] = {}
+        out: dict[str, float] = {}
+        for path, q in self.layout.fields():
+            if isinstance(q, Uniform):
+                if path in values:
+                    v = float(values[path])
+                else:
+                    v = 0.5 * (_scalar(q.low, variables) + _scalar(q.high, variables))
+            elif isinstance(q, Choice):
+                v = float(values.get(path, q.options[0]))
+            else:
+                v = _scalar(q, variables)
+            out[path] = v
+            if path.startswith("variables."):
+                variables[path.split(".", 1)[1]] = v
+        return out
+
+    def from_unit(self, units: Mapping[str, float]) -> dict[str, float]:
+        """Draw values from positions in their ranges (0: low end, 1: high end; clipped), evaluated in draw order
+        since a range may read earlier draws; draws not given take the middle of their range."""
+        variables: dict[str, float] = {}
+        out: dict[str, float] = {}
+        for path, q in self.layout.fields():
+            if isinstance(q, Uniform):
+                lo, hi = _scalar(q.low, variables), _scalar(q.high, variables)
+                v = lo + min(max(float(units.get(path, 0.5)), 0.0), 1.0) * (hi - lo)
+                out[path] = v
+            elif isinstance(q, Choice):
+                v = q.options[0]
+            else:
+                v = _scalar(q, variables)
+            if path.startswith("variables."):
+                variables[path.split(".", 1)[1]] = v
+        return out
+
+    def bounds(self, values: Mapping[str, float]) -> dict[str, tuple[float, float]]:
+        """The range of each uniform draw given the others (bounds may read variables)."""
+        fields = self.evaluate(values)
+        variables = {p.split(".", 1)[1]: v for p, v in fields.items() if p.startswith("variables.")}
+        out = {}
+        for d in self.draws:
+            q = d.quantity
+            if isinstance(q, Uniform):
+                out[d.path] = (_scalar(q.low, variables), _scalar(q.high, variables))
+            else:
+                assert isinstance(q, Choice)
+                out[d.path] = (min(q.options), max(q.options))
+        return out
+
+    def statics(self, values: Mapping[str, float]) -> list[BodySpec]:
+        """Walls, ground, basket and the static elements, in creation order (uids not yet assigned)."""
+        key = tuple(sorted(values.items()))
+        if key in self._statics_cache:
+            return list(self._statics_cache[key])
+        bodies = self._make_statics(values)
+        if len(self._statics_cache) > 256:
+            self._statics_cache.clear()
+        self._statics_cache[key] = tuple(bodies)
+        return bodies
+
+    def _make_statics(self, values: Mapping[str, float]) -> list[BodySpec]:
+        f = self.evaluate(values)
+        bodies = [make_static(0, "wall_l"), make_static(0, "wall_r"), make_static(0, "ground"),
+                  make_static(0, "basket", (f["basket.position[0]"], f["basket.position[1]"]), 0.0)]
+        for i, s in enumerate(self.layout.static):
+            bodies.append(make_static(0, s.shape, (f[f"static[{i}].position[0]"], f[f"static[{i}].position[1]"]),
+                                      f[f"static[{i}].angle"]))
+        return bodies
+
+    def world(self, values: Mapping[str, float], attributes: Sequence[Attributes]) -> WorldSpec:
+        """The concrete scene: statics at the draws' places, slot i holding ``attributes[i]`` at its drawn start."""
+        if len(attributes) != len(self.layout.dynamic):
+            raise ValueError(f"scene {self.scene_id} has {len(self.layout.dynamic)} dynamic slots, "
+                             f"got {len(attributes)} objects")
+        f = self.evaluate(values)
+        bodies = self.statics(values)
+        for i, (shape, color, size) in enumerate(attributes):
+            bodies.append(make_dynamic(0, shape, color, size,
+                                       (f[f"dynamic[{i}].position[0]"], f[f"dynamic[{i}].position[1]"]),
+                                       (f[f"dynamic[{i}].velocity[0]"], f[f"dynamic[{i}].velocity[1]"])))
+        return WorldSpec(bodies=assign_uids(bodies), scene_id=self.scene_id)
+
+    def slot_allows(self, slot: int, attributes: Attributes) -> bool:
+        """Whether dynamic slot ``slot`` can hold an object with these (shape, colour, size)."""
+        s = self.layout.dynamic[slot]
+        shape, color, size = attributes
+        return all(fixed in ("random", value) for fixed, value in ((s.shape, shape), (s.color, color),
+                                                                   (s.size, size)))
+
+
+def _names(q: Quantity) -> tuple[str, ...]:
+    if isinstance(q, Expr):
+        return q.names
+    if isinstance(q, Uniform):
+        return _names(q.low) + _names(q.high)
+    return ()
+
+
+@lru_cache(maxsize=32)
+def layout_model(scene_id: int) -> LayoutModel:
+    return LayoutModel(scene_id)

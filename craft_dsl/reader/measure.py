@@ -1,0 +1,132 @@
+"""Sub-pixel measurement of one body in a full-resolution window: coverage, centroid, moments, eyes.
+
+Within the window the body's colour is read by the palette lookup (:func:`craft_dsl.reader.detect.lookup`). Its mask
+is closed with a disk of radius :data:`CLOSING_RADIUS` and hole-filled: the bodies are convex, so the closing gives
+back the parts the eyes cover (white sclera and black pupils, which may reach the outline of a small body) without
+adding anything else. Pixels well inside the closed mask count fully; on its rim a pixel counts by the projection of
+its colour on the line from the background colour to the body colour (the renderer blends exactly so), clipped to
+[0, 1]. The coverage-weighted moments give the area, the centroid (the body's reference point: the centre of a cube
+or circle, the circumcentre of a triangle) and the second moments; the eye pixels give the body's angle.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage as ndi
+
+from .detect import BLACK, GRAY, PALETTE, WHITE, clean_background, lookup
+
+#: Radius (pixels) of the disk that closes the eye notches of a body's colour mask.
+CLOSING_RADIUS = 4
+
+
+def _disk(radius: int) -> np.ndarray:
+    r = np.arange(-radius, radius + 1)
+    return (r[:, None] ** 2 + r[None, :] ** 2) <= radius * radius + radius
+
+
+_CLOSING = _disk(CLOSING_RADIUS)
+#: A piece of another body colour this large (pixels) next to the body means another body touches it.
+OTHER_BODY_PIXELS = 12
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """One body in one frame (full-resolution pixels; pixel centres at +0.5)."""
+
+    area: float
+    x: float
+    y: float
+    mxx: float
+    mxy: float
+    myy: float
+    radius: float  # largest distance from the centroid to a pixel of the closed mask (pixels)
+    eye_x: float | None  # centroid of the eye pixels inside the body
+    eye_y: float | None
+    complete: bool  # the body does not reach the window's border (and is not cut by another body)
+
+    def eye_angle(self) -> float | None:
+        """The body's angle (radians, counter-clockwise as seen) from the direction of its eyes: they sit at local
+        (0, -0.45) m on average, i.e. straight above the centre at the initial angle pi."""
+        if self.eye_x is None or self.eye_y is None:
+            return None
+        dx, dy = self.eye_x - self.x, -(self.eye_y - self.y)  # world axes (y up)
+        if math.hypot(dx, dy) < 0.3:
+            return None
+        # local (0, -1) rotated by theta is (sin theta, -cos theta)
+        return math.atan2(dx, -dy)
+
+
+def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tuple[int, int],
+            labels: np.ndarray | None = None, seed: tuple[int, int] | None = None) -> Measurement | None:
+    """Measure the body of palette colour ``color`` in ``window`` (uint8 [h, w, 3]) over ``background`` (the
+    static layer's same window); ``origin`` = (row, column) of the window in the frame. With ``seed`` (row, column
+    inside the window) only the connected piece nearest to it is measured."""
+    if labels is None:
+        labels = lookup(window)
+    # the antialiased rims of black statics read as gray: gray counts only over a flat background
+    clean = clean_background(background)
+    core = labels == color
+    if color == GRAY:
+        core &= clean
+    if not core.any():
+        return None
+    closed = ndi.binary_closing(np.pad(core, CLOSING_RADIUS), structure=_CLOSING)[
+        CLOSING_RADIUS:-CLOSING_RADIUS, CLOSING_RADIUS:-CLOSING_RADIUS] | core
+    filled = ndi.binary_fill_holes(closed)
+    pieces, n = ndi.label(filled)
+    if n > 1:
+        if seed is not None:
+            ys, xs = np.nonzero(filled)
+            k = int(np.argmin((ys - seed[0]) ** 2 + (xs - seed[1]) ** 2))
+            keep = pieces[ys[k], xs[k]]
+        else:
+            keep = int(np.argmax(np.bincount(pieces.ravel())[1:])) + 1
+        filled = pieces == keep
+    interior = ndi.binary_erosion(filled, border_value=1)
+    rim = ndi.binary_dilation(filled) & ~interior
+    c = PALETTE[color]
+    b = background.astype(np.float32)
+    cb = c[None, None, :] - b
+    denom = np.maximum((cb * cb).sum(-1), 1.0)
+    proj = ((window.astype(np.float32) - b) * cb).sum(-1) / denom
+    eyes = (labels == WHITE) | (labels == BLACK)
+    # another body's colour (compression rings of statics reach a pixel or two beyond their drawn rims)
+    other = (labels >= 0) & (labels < WHITE) & (labels != color)
+    other &= (labels != GRAY) | ndi.binary_erosion(clean, iterations=2, border_value=1)
+    alpha = interior.astype(np.float32)
+    rim_ok = rim & ~other & ~(eyes & filled)
+    alpha[rim_ok] = np.clip(proj[rim_ok], 0.0, 1.0)
+    alpha[rim & filled & eyes] = 1.0
+    area = float(alpha.sum())
+    if area <= 0:
+        return None
+    h, w = alpha.shape
+    rows = np.arange(h, dtype=np.float64)[:, None] + 0.5
+    cols = np.arange(w, dtype=np.float64)[None, :] + 0.5
+    cx = float((alpha * cols).sum() / area)
+    cy = float((alpha * rows).sum() / area)
+    dx, dy = cols - cx, rows - cy
+    mxx = float((alpha * dx * dx).sum() / area)
+    mxy = float((alpha * dx * dy).sum() / area)
+    myy = float((alpha * dy * dy).sum() / area)
+    radius = float(np.sqrt((dx * dx + dy * dy)[filled].max()))
+    inner_eyes = eyes & interior
+    eye_x: float | None = None
+    eye_y: float | None = None
+    if inner_eyes.any():
+        ey, ex = np.nonzero(inner_eyes)
+        eye_x, eye_y = float(ex.mean() + 0.5 + origin[1]), float(ey.mean() + 0.5 + origin[0])
+    border = filled[0].any() or filled[-1].any() or filled[:, 0].any() or filled[:, -1].any()
+    ring = ndi.binary_dilation(filled, iterations=2) & ~filled
+    cut = False
+    if (ring & other).any():  # another body touches: a piece of another colour of some size (not eye-rim mixes)
+        pieces, n = ndi.label(other)
+        sizes = np.bincount(pieces.ravel())
+        touching = np.unique(pieces[ring & other])
+        cut = bool(np.any(sizes[touching[touching > 0]] >= OTHER_BODY_PIXELS))
+    return Measurement(area, cx + origin[1], cy + origin[0], mxx, mxy, myy, radius, eye_x, eye_y,
+                       not border and not cut)

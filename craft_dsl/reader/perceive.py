@@ -1,0 +1,135 @@
+"""A CRAFT video file -> what is in it: layout, statics, bodies, their simulation, as a ``PerceivedScene``.
+
+The stages (each its own module): decoding (:mod:`~craft_dsl.reader.video`), layout identification and static fit
+(:mod:`~craft_dsl.reader.layout`), colour detection (:mod:`~craft_dsl.reader.detect`), objects and their attributes
+(:mod:`~craft_dsl.reader.track`), and the simulation that reproduces the video (:mod:`~craft_dsl.reader.reconstruct`).
+The :class:`~craft_dsl.perception.PerceivedScene` written from it holds the scene id, every object with its attribute
+distributions, the static poses, per-frame tracks with velocities (the reconstructed motion) and the events of the
+reconstructed run; ``craft_dsl.perception`` executes programs over it like over any perceived scene.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..perception.export import export_perceived
+from ..perception.schema import PerceivedScene
+from ..render.raster import static_layer
+from ..world import WorldSpec
+from .detect import blobs, grid_labels, grid_rims
+from .layout import StaticFit, fit_layout
+from .layout_model import layout_model
+from .reconstruct import START_FRAMES, Reconstruction, fit_frames, reconstruct
+from .track import (
+    TrackedObject,
+    classify_shape,
+    measure_frames,
+    merge_colour_splits,
+    refine_frames,
+    select_objects,
+    track,
+    verify_shape,
+)
+from .video import Decoder, decode
+
+
+@dataclass
+class Perception:
+    """Everything the reader saw in one video, with the time each stage took (seconds)."""
+
+    scene: PerceivedScene
+    layout: StaticFit
+    objects: list[TrackedObject]
+    reconstruction: Reconstruction
+    timings: dict[str, float] = field(default_factory=dict)
+
+
+def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[str, float] | None = None
+                    ) -> Perception:
+    """Perceive decoded frames uint8 [T, H, W, 3] (``scene``: skip the identification)."""
+    times = timings if timings is not None else {}
+    t = time.perf_counter()
+    layout = fit_layout(frames, scene=scene)
+    model = layout_model(layout.scene)
+    background = static_layer(WorldSpec(bodies=layout.statics), frames.shape[1])
+    times["layout"] = time.perf_counter() - t
+    t = time.perf_counter()
+    found = blobs(grid_labels(frames, background), grid_rims(background))
+    objects = select_objects(merge_colour_splits(track(found, len(frames))), len(model.layout.dynamic))
+    for obj in objects:
+        classify_shape(obj, frames, background)
+        measure_frames(obj, frames, background, fit_frames(min(START_FRAMES, len(frames))))
+        verify_shape(obj, frames, background)
+    times["detect"] = time.perf_counter() - t
+    t = time.perf_counter()
+
+    def measure(obj: TrackedObject, which: Sequence[int], shape: str, size: str) -> None:
+        measure_frames(obj, frames, background, which)
+        refine_frames(obj, frames, background, which, shape, size)
+
+    rec = reconstruct(model, layout.values, objects, len(frames), steps=len(frames), measure=measure)
+    times["reconstruct"] = time.perf_counter() - t
+    perceived = to_perceived(rec, objects, layout)
+    return Perception(perceived, layout, objects, rec, times)
+
+
+def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: StaticFit) -> PerceivedScene:
+    """The PerceivedScene of a reconstruction: the exported run, with the attribute probabilities the detector
+    gives (the colour is read directly; shape and size from :func:`~craft_dsl.reader.track.classify_shape`)."""
+    scene = export_perceived(rec.simulation)
+    n = len(rec.attributes)
+    probs: dict[int, dict[str, Any]] = {}
+    for obj, slot in zip(objects, rec.slots):
+        if slot < 0:
+            continue
+        uid = n - 1 - slot
+        shape, _color, size = rec.attributes[slot]
+        p_shape: dict[str, float] = {}
+        p_size: dict[str, float] = {}
+        for (sh, sz), p in obj.shape_size.items():
+            p_shape[sh] = p_shape.get(sh, 0.0) + p
+            p_size[sz] = p_size.get(sz, 0.0) + p
+        # the chosen (unique, slot-allowed) values stay the most likely ones
+        p_shape = _with_mode(p_shape, shape)
+        p_size = _with_mode(p_size, size)
+        probs[uid] = {"shape": p_shape, "size": p_size}
+    objs = []
+    for o in scene.objects:
+        extra = probs.get(o.id)
+        objs.append(o.model_copy(update=extra) if extra else o)
+    meta = {"source": "craft_dsl.reader", "layout_rms": round(layout.rms, 3), "fit_frames": rec.fit_frames,
+            "refits": rec.refits, "max_stray_px": round(max(rec.stray_px.values(), default=0.0), 3)}
+    return scene.model_copy(update={"objects": objs, "meta": meta})
+
+
+def _with_mode(dist: dict[str, float], mode: str) -> dict[str, float]:
+    """``dist`` with ``mode`` made the most likely value (probabilities rounded, summing to 1)."""
+    dist = {k: v for k, v in dist.items() if v > 1e-6}
+    dist.setdefault(mode, 0.0)
+    top = max(dist.values())
+    if dist[mode] < top:
+        dist[mode], other = top, dist[mode]
+        for k in dist:
+            if k != mode and dist[k] == top:
+                dist[k] = other
+                break
+    total = sum(dist.values())
+    rounded = {k: round(v / total, 6) for k, v in sorted(dist.items(), key=lambda kv: -kv[1])}
+    drift = 1.0 - sum(rounded.values())
+    rounded[mode] = round(rounded[mode] + drift, 6)
+    return rounded
+
+
+def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scene: int | None = None) -> Perception:
+    """Perceive a video file (see the module docstring)."""
+    timings: dict[str, float] = {}
+    t = time.perf_counter()
+    frames = decode(path, decoder)
+    timings["decode"] = time.perf_counter() - t
+    return perceive_frames(frames, scene, timings)

@@ -1,0 +1,624 @@
+"""Analysis by synthesis: the simulation whose rendering is the video.
+
+A CRAFT video is a deterministic function of its layout's random draws and its objects' attributes. Once the layout
+and its statics are known (:mod:`craft_dsl.reader.layout`) and the bodies tracked (:mod:`craft_dsl.reader.track`),
+what is left is a handful of numbers per body: the draws of its slot's start (position, velocity). They are fitted
+by running the physics engine itself:
+
+1. **Slots.** Each tracked body is given one of the layout's dynamic slots (Hungarian assignment): the cost is how
+   far its first sighting lies from the slot's start region, plus the log-probability that its (shape, size) is
+   one the slot allows. The slot fixes the creation order, hence the uniqueIDs and the engine's body order.
+2. **Start.** Gauss-Newton (finite differences, backtracking, each draw kept within its range) on the start draws
+   (the slots' own, and variables only the slots read) against the exact poses (render and compare,
+   :mod:`craft_dsl.reader.refine`) of the first :data:`START_FRAMES` frames, and colour centroids where there is no
+   exact pose (their measurement model adds the eye bias rotated by the simulated angle, :data:`EYE_BIAS`). A choice
+   draw (a launch speed out of a list) is tried option by option.
+3. **Check.** The whole run is simulated from the fitted start and compared with the tracks in every frame; while a
+   body strays by more than :data:`STRAY_PX`, the start is refitted on all frames up to just before it strays (the
+   longer window pins the start down further), at most :data:`REFITS` times. If it still strays, the less likely
+   (shape, size) readings are tried (a body of the wrong shape makes the others stray too).
+4. **Re-anchoring.** Chaotic contacts amplify the last digits of any start: a body that still strays is restarted a
+   few frames before, its state there (position, angle, velocity, spin, with those of the other bodies that stray)
+   fitted to the next frames by Levenberg-Marquardt, and the run goes on from there (:func:`reanchor`,
+   :func:`stitch`), as long as each restart pushes the first stray later.
+
+What comes out is a live simulation (:class:`~craft_dsl.physics.live.LiveSimulation`): events from the engine's
+contact log, counterfactuals by clean re-simulation, exactly as for the ground truth. Where no restart helps, the run
+is kept as it is and its stray is reported.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from ..physics.engine import ContactLog, PhysicsEngine, RawRun, splice
+from ..physics.live import LiveSimulation, get_engine
+from ..render.raster import world_to_pixel
+from ..scenes import Choice, Uniform
+from ..simulation import Trajectory
+from ..world import WorldSpec
+from .layout_model import Attributes, LayoutModel
+from .track import EYE_BIAS, TrackedObject
+
+#: Frames of the first start fit.
+START_FRAMES = 40
+#: Gauss-Newton iterations of a start fit.
+FIT_ITERATIONS = 8
+#: A body straying further than this from its track (pixels, in a frame where it is seen alone) triggers a refit.
+STRAY_PX = 3.0
+#: Refits on longer windows before the run is accepted as it is.
+REFITS = 2
+#: Longest window (frames) of a refit: beyond it the engine runs cost more than they pin down.
+MAX_WINDOW = 150
+#: Frames measured exactly in a fit window: every one of the first DENSE_FRAMES, then about FIT_SAMPLES spread over
+#: the rest (the blob centroids fill in between).
+DENSE_FRAMES = 16
+FIT_SAMPLES = 24
+#: Re-anchoring: restart this many frames before the first stray, fit the next ANCHOR_WINDOW frames, restart the
+#: bodies straying more than ANCHOR_MOVER_PX there; at most MAX_ANCHORS restarts per video.
+ANCHOR_BACK = 6
+ANCHOR_WINDOW = 36
+#: (frames back, window) of each restart tried in turn: the default, then one further back on a shorter window
+#: (the stray may have begun at a bounce some frames before it shows).
+ANCHOR_TRIES: tuple[tuple[int, int], ...] = ((ANCHOR_BACK, ANCHOR_WINDOW), (16, 24))
+ANCHOR_MOVER_PX = 1.0
+ANCHOR_ITERATIONS = 5
+MAX_ANCHORS = 6
+_ZERO6 = np.zeros(6)
+_ANCHOR_STEP_LIMIT = np.tile([0.5, 0.5, 0.5, 5.0, 5.0, 5.0], 16)
+#: Distances above this (pixels) count as this much in the score of a run.
+SCORE_CAP_PX = 20.0
+#: Other (shape, size) readings tried per body when the run strays: at most this many, each at least this likely.
+ALTERNATIVES = 2
+ALTERNATIVE_P = 1e-4
+_FD = 1e-5
+
+
+@dataclass
+class Reconstruction:
+    """The fitted simulation and how well it follows the video."""
+
+    simulation: LiveSimulation
+    values: dict[str, float]
+    slots: list[int]  # slot of each tracked object
+    attributes: list[Attributes]  # per slot
+    stray_px: dict[int, float] = field(default_factory=dict)  # uid -> largest distance from its track (pixels)
+    first_stray: dict[int, int] = field(default_factory=dict)  # uid -> first frame beyond STRAY_PX
+    fit_frames: int = 0
+    refits: int = 0
+    anchors: int = 0  # restarts of straying bodies from the video
+
+
+def _observations(obj: TrackedObject, frames: int) -> np.ndarray:
+    """[frames, 3] per frame: x, y (pixels) and 1 where that is the colour centroid (with its eye bias), 0 where it
+    is the exact centre (render and compare); NaN where the body is not seen alone or is cut by the border."""
+    out = np.full((frames, 3), np.nan)
+    for k, b in enumerate(obj.blobs[:frames]):
+        if k in obj.poses:
+            out[k] = (obj.poses[k][0], obj.poses[k][1], 0.0)
+        elif b is not None and not b.touches_edge and not b.touches_static:
+            m = obj.measurements.get(k)
+            if m is not None and m.complete:
+                out[k] = (m.x, m.y, 1.0)
+            elif m is None:
+                out[k] = (b.x, b.y, 1.0)
+    return out
+
+
+def _slot_region(model: LayoutModel, values: Mapping[str, float], slot: int) -> tuple[np.ndarray, np.ndarray]:
+    """Low and high corner (metres) of a slot's start position given the static draws."""
+    lo = np.zeros(2)
+    hi = np.zeros(2)
+    fields = model.evaluate(values)
+    bounds = model.bounds(values)
+    for axis in range(2):
+        path = f"dynamic[{slot}].position[{axis}]"
+        if path in bounds:
+            lo[axis], hi[axis] = bounds[path]
+        else:
+            lo[axis] = hi[axis] = fields[path]
+    return lo, hi
+
+
+def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Sequence[TrackedObject]) -> list[int]:
+    """The slot of each object (see the module docstring); objects beyond the slots get -1."""
+    n_slots = len(model.layout.dynamic)
+    cost = np.zeros((len(objects), n_slots))
+    from ..perception.coords import to_metres
+
+    for i, obj in enumerate(objects):
+        seen = obj.seen()
+        first = seen[0] if seen else 0
+        b = obj.blobs[first]
+        pos = np.array(to_metres(b.x, b.y, 256), dtype=float) if b is not None else np.array([0.0, 60.0])
+        for s in range(n_slots):
+            lo, hi = _slot_region(model, values, s)
+            if first > 0:  # entered later (from above the picture, or hidden at first): only x is comparable
+                gap = np.array([max(lo[0] - pos[0], 0.0, pos[0] - hi[0]), 0.0])
+            else:
+                gap = np.maximum(np.maximum(lo - pos, 0.0), pos - hi)
+            allowed = sum(p for (shape, size), p in obj.shape_size.items()
+                          if model.slot_allows(s, (shape, obj.color_name, size)))
+            cost[i, s] = float(np.hypot(*gap)) - 3.0 * math.log(max(allowed, 1e-6))
+    rows, cols = linear_sum_assignment(cost)
+    out = [-1] * len(objects)
+    for r, c in zip(rows, cols):
+        out[int(r)] = int(c)
+    return out
+
+
+def slot_attributes(model: LayoutModel, objects: Sequence[TrackedObject], slots: Sequence[int]) -> list[Attributes]:
+    """(shape, colour, size) per slot: each object's most likely (shape, size) that its slot allows and no other
+    object of the scene has (the triples are unique)."""
+    n_slots = len(model.layout.dynamic)
+    out: list[Attributes | None] = [None] * n_slots
+    used: set[Attributes] = set()
+    order = sorted(range(len(objects)), key=lambda i: -max(objects[i].shape_size.values(), default=0.0))
+    for i in order:
+        s = slots[i]
+        if s < 0:
+            continue
+        obj = objects[i]
+        ranked = sorted(obj.shape_size.items(), key=lambda kv: -kv[1])
+        for (shape, size), _p in ranked:
+            triple = (shape, obj.color_name, size)
+            if triple not in used and model.slot_allows(s, triple):
+                out[s] = triple
+                used.add(triple)
+                break
+        else:
+            shape, size = obj.best()
+            out[s] = (shape, obj.color_name, size)
+    for s in range(n_slots):  # a slot no object was seen for: any allowed triple (the body never showed up)
+        if out[s] is None:
+            slot = model.layout.dynamic[s]
+            out[s] = (slot.shape if slot.shape != "random" else "cube", slot.color if slot.color != "random" else
+                      "gray", slot.size if slot.size != "random" else "small")
+    return [t for t in out if t is not None]
+
+
+class StartFit:
+    """Least-squares fit of the start draws against the measured centroids."""
+
+    def __init__(self, model: LayoutModel, static_values: Mapping[str, float], attributes: Sequence[Attributes],
+                 observed: dict[int, np.ndarray], engine: PhysicsEngine, size: int = 256) -> None:
+        self.model = model
+        self.static_values = dict(static_values)
+        self.attributes = list(attributes)
+        self.observed = observed  # slot -> [frames, 2] pixels (NaN: unseen)
+        self.engine = engine
+        self.size = size
+        n = len(model.layout.dynamic)
+        self.uids = [n - 1 - s for s in range(n)]  # slot s gets uid n-1-s (last slot, uid 0)
+        self._static_bounds = model.bounds(self.static_values)
+        # every draw the statics do not read: the slots' own, and variables only the slots read (a launch speed)
+        free = [d for d in model.draws if d.path not in model.static_paths]
+        self.paths = [d.path for d in free if isinstance(d.quantity, Uniform)]
+        self.choices = [d for d in free if isinstance(d.quantity, Choice)]
+
+    def values(self, units: np.ndarray, choice: Mapping[str, float]) -> dict[str, float]:
+        unit = {p: float(u) for p, u in zip(self.paths, units)}
+        base = dict(self.static_values)
+        out = self.model.from_unit({**{p: self._unit_of(p, v) for p, v in base.items()}, **unit})
+        out.update(choice)
+        return out
+
+    def _unit_of(self, path: str, value: float) -> float:
+        lo, hi = self._static_bounds[path]
+        return 0.5 if hi == lo else (value - lo) / (hi - lo)
+
+    def world(self, units: np.ndarray, choice: Mapping[str, float]) -> WorldSpec:
+        return self.model.world(self.values(units, choice), self.attributes)
+
+    def predicted(self, world: WorldSpec, frames: int) -> dict[int, np.ndarray]:
+        """slot -> [frames, 2] predicted measured centroid (pixels) over the first ``frames`` frames."""
+        raw = self.engine.run(world, frames)
+        traj = raw.trajectory
+        out = {}
+        for s, uid in enumerate(self.uids):
+            col = traj.column(uid)
+            pos = traj.positions[1:frames + 1, col]
+            ang = traj.angles[1:frames + 1, col]
+            shape, _color, size = self.attributes[s]
+            bx, by = EYE_BIAS.get((shape, size), (0.0, 0.0))
+            px, py = world_to_pixel(pos[:, 0], pos[:, 1], self.size)  # type: ignore[arg-type]
+            c, sn = np.cos(ang), np.sin(ang)
+            # body-frame bias (y up) rotated by the angle, then to pixel axes (y down), where the observation is a
+            # colour centroid
+            biased = self.observed[s][:frames, 2] if s in self.observed else np.zeros(frames)
+            biased = np.nan_to_num(biased)
+            out[s] = np.stack([np.asarray(px) + biased * (c * bx - sn * by),
+                               np.asarray(py) - biased * (sn * bx + c * by)], axis=1)
+        return out
+
+    def residual(self, units: np.ndarray, choice: Mapping[str, float], frames: int) -> np.ndarray:
+        pred = self.predicted(self.world(units, choice), frames)
+        parts = []
+        for s, obs in self.observed.items():
+            o = obs[:frames]
+            ok = ~np.isnan(o[:, 0])
+            # exact centres weigh as what they are: ten times more precise than colour centroids
+            w = np.where(o[ok, 2] > 0, 1.0, 10.0)[:, None]
+            parts.append(((pred[s][ok] - o[ok, :2]) * w).ravel())
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    def fit(self, frames: int, start: np.ndarray | None = None) -> tuple[np.ndarray, dict[str, float], float]:
+        """Best units, choice values and RMS residual (pixels) on the first ``frames`` frames."""
+        options = [{}] if not self.choices else [
+            {d.path: v for d, v in zip(self.choices, combo)}
+            for combo in _product([d.quantity.options for d in self.choices])]  # type: ignore[union-attr]
+        best: tuple[np.ndarray, dict[str, float], float] | None = None
+        for choice in options:
+            units = np.full(len(self.paths), 0.5) if start is None else start.copy()
+            units, cost = self._gauss_newton(units, choice, frames)
+            if best is None or cost < best[2]:
+                best = (units, choice, cost)
+        assert best is not None
+        r = self.residual(best[0], best[1], frames)
+        return best[0], best[1], float(np.sqrt(np.mean(r * r))) if r.size else 0.0
+
+    def _gauss_newton(self, units: np.ndarray, choice: Mapping[str, float], frames: int) -> tuple[np.ndarray, float]:
+        r = self.residual(units, choice, frames)
+        cost = float(r @ r)
+        for _ in range(FIT_ITERATIONS):
+            if not self.paths:
+                break
+            jac = np.empty((r.size, len(self.paths)))
+            for j in range(len(self.paths)):
+                du = units.copy()
+                du[j] += _FD if du[j] + _FD <= 1.0 else -_FD
+                jac[:, j] = (self.residual(du, choice, frames) - r) / (du[j] - units[j])
+            # normal equations by einsum (a multithreaded BLAS is slow on a busy machine), lightly damped so that a
+            # draw the window does not see keeps its value
+            jtj = np.einsum("ij,ik->jk", jac, jac)
+            step = np.linalg.solve(jtj + np.diag(1e-9 * np.diag(jtj) + 1e-12), -np.einsum("ij,i->j", jac, r))
+            improved = False
+            for alpha in (1.0, 0.5, 0.25, 0.1, 0.03):
+                trial = np.clip(units + alpha * step, 0.0, 1.0)
+                rt = self.residual(trial, choice, frames)
+                ct = float(rt @ rt)
+                if ct < cost:
+                    units, r, cost, improved = trial, rt, ct, True
+                    break
+            if not improved or float(np.max(np.abs(step))) < 1e-7:
+                break
+        return units, cost
+
+
+def fit_frames(window: int) -> list[int]:
+    """The frames of a fit window that are measured exactly (see :data:`DENSE_FRAMES`)."""
+    dense = list(range(min(DENSE_FRAMES, window)))
+    if window <= DENSE_FRAMES:
+        return dense
+    stride = max(1, (window - DENSE_FRAMES) // FIT_SAMPLES)
+    return dense + list(range(DENSE_FRAMES, window, stride))
+
+
+def _product(options: Sequence[Sequence[float]]) -> list[tuple[float, ...]]:
+    out: list[tuple[float, ...]] = [()]
+    for opts in options:
+        out = [o + (v,) for o in out for v in opts]
+    return out
+
+
+def _initial_units(fit: StartFit) -> np.ndarray:
+    """Start positions from the first sightings (the middle of the range for the rest)."""
+    from ..perception.coords import to_metres
+
+    units = np.full(len(fit.paths), 0.5)
+    bounds = fit.model.bounds(fit.static_values)
+    for j, path in enumerate(fit.paths):
+        if ".position[" not in path:
+            continue
+        slot = int(path.split("[", 1)[1].split("]", 1)[0])
+        axis = int(path.rsplit("[", 1)[1][0])
+        obs = fit.observed.get(slot)
+        if obs is None:
+            continue
+        seen = np.nonzero(~np.isnan(obs[:, 0]))[0]
+        if seen.size == 0 or (seen[0] > 0 and axis == 1):
+            continue
+        x, y = to_metres(obs[seen[0], 0], obs[seen[0], 1], fit.size)
+        y = y if obs[seen[0], 2] == 0 else y - 0.3  # the colour centroid of a small body sits above its centre
+        value = float(x if axis == 0 else y)
+        lo, hi = bounds[path]
+        units[j] = 0.5 if hi == lo else float(np.clip((value - lo) / (hi - lo), 0.0, 1.0))
+    return units
+
+
+def _as_observed(pos: np.ndarray, ang: np.ndarray, shape_size: tuple[str, str], biased: np.ndarray,
+                 size: int) -> np.ndarray:
+    """[n, 2] pixels: where body centres ``pos`` (metres) at angles ``ang`` are observed: the centre, plus the eye
+    bias rotated by the angle where the observation is a colour centroid (``biased`` 1)."""
+    bx, by = EYE_BIAS.get(shape_size, (0.0, 0.0))
+    px, py = world_to_pixel(pos[:, 0], pos[:, 1], size)  # type: ignore[arg-type]
+    c, sn = np.cos(ang), np.sin(ang)
+    biased = np.nan_to_num(biased)
+    return np.stack([np.asarray(px) + biased * (c * bx - sn * by), np.asarray(py) - biased * (sn * bx + c * by)],
+                    axis=1)
+
+
+def _predicted(sim: LiveSimulation, fit: StartFit, frames: int) -> dict[int, np.ndarray]:
+    """slot -> [frames, 2]: where the run puts each observation."""
+    traj = sim.raw.trajectory
+    out = {}
+    for s in fit.observed:
+        col = traj.column(fit.uids[s])
+        shape, _color, size = fit.attributes[s]
+        out[s] = _as_observed(traj.positions[1:frames + 1, col], traj.angles[1:frames + 1, col], (shape, size),
+                              fit.observed[s][:frames, 2], fit.size)
+    return out
+
+
+def _distances(sim: LiveSimulation, fit: StartFit, frames: int) -> dict[int, np.ndarray]:
+    """slot -> [frames] distance (pixels) between the run and the observations (NaN where none)."""
+    pred = _predicted(sim, fit, frames)
+    return {s: np.hypot(*(pred[s] - obs[:frames, :2]).T) for s, obs in fit.observed.items()}
+
+
+def stray(sim: LiveSimulation, fit: StartFit, frames: int, start: int = 0
+          ) -> tuple[dict[int, float], dict[int, int]]:
+    """Per uid: the largest distance (pixels) between the run and its track, and the first frame from ``start`` on
+    beyond STRAY_PX (two frames in a row: a single one is a blob merged with a neighbour's rim)."""
+    worst: dict[int, float] = {}
+    first: dict[int, int] = {}
+    for s, d in _distances(sim, fit, frames).items():
+        uid = fit.uids[s]
+        ok = ~np.isnan(d)
+        worst[uid] = float(np.max(d[ok])) if ok.any() else 0.0
+        ok[:start] = False
+        over = np.nonzero(ok & (np.nan_to_num(d) > STRAY_PX))[0]
+        runs = over[1:][np.diff(over) == 1] if over.size > 1 else np.zeros(0, dtype=int)
+        if runs.size:
+            first[uid] = int(runs[0] - 1)
+    return worst, first
+
+
+def _score(sim: LiveSimulation, fit: StartFit, frames: int, start: int = 0) -> float:
+    """How far the run strays from the tracks from frame ``start`` on: mean over bodies and frames seen of the
+    distance, capped at :data:`SCORE_CAP_PX` (a body lost for good costs the cap, not its whole flight)."""
+    total, count = 0.0, 0
+    for d in _distances(sim, fit, frames).values():
+        d = d[start:]
+        ok = ~np.isnan(d)
+        total += float(np.minimum(d[ok], SCORE_CAP_PX).sum())
+        count += int(ok.sum())
+    return total / max(count, 1)
+
+
+@dataclass
+class _Attempt:
+    units: np.ndarray
+    choice: dict[str, float]
+    simulation: LiveSimulation
+    worst: dict[int, float]
+    first: dict[int, int]
+    window: int
+    refits: int
+    score: float
+
+
+def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
+             slots: Sequence[int], attributes: Sequence[Attributes], frames: int, steps: int, eng: PhysicsEngine,
+             measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None, refits_allowed: int) -> _Attempt:
+    if measure is not None:
+        for obj, s in zip(objects, slots):
+            if s >= 0:
+                measure(obj, fit_frames(min(START_FRAMES, frames)), attributes[s][0], attributes[s][2])
+    observed = {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}
+    fit = StartFit(model, static_values, attributes, observed, eng)
+    window = min(START_FRAMES, frames)
+    units, choice, _rms = fit.fit(window, _initial_units(fit))
+    refits = 0
+    while True:
+        world = fit.world(units, choice)
+        sim = LiveSimulation(world, eng.run(world, steps), eng, meta={"scene": model.scene_id,
+                                                                     "source": "reconstructed from video"})
+        worst, first = stray(sim, fit, frames)
+        if not first or refits >= refits_allowed:
+            break
+        earliest = min(first.values())
+        if earliest <= window:
+            break
+        window = min(max(window + 10, earliest - 2), MAX_WINDOW)
+        if measure is not None:
+            for obj, s in zip(objects, slots):
+                if s >= 0:
+                    measure(obj, fit_frames(window), attributes[s][0], attributes[s][2])
+                    fit.observed[s] = _observations(obj, frames)
+        units, choice, _rms = fit.fit(window, units)
+        refits += 1
+    return _Attempt(units, choice, sim, worst, first, window, refits, _score(sim, fit, frames))
+
+
+# -- re-anchoring: where chaotic contacts make the run stray, restart the straying bodies from the video ----------
+
+
+def _state_world(world: WorldSpec, traj: Trajectory, row: int, offsets: Mapping[int, np.ndarray]) -> WorldSpec:
+    """``world`` with every dynamic body at its state of ``row`` (plus ``offsets[uid]``: dx, dy, dangle, dvx, dvy,
+    dspin)."""
+    bodies = []
+    for b in world.bodies:
+        if not b.dynamic:
+            bodies.append(b)
+            continue
+        c = traj.column(b.uid)
+        d = offsets.get(b.uid, _ZERO6)
+        bodies.append(replace(
+            b, position=(float(traj.positions[row, c, 0] + d[0]), float(traj.positions[row, c, 1] + d[1])),
+            angle=float(traj.angles[row, c] + d[2]),
+            velocity=(float(traj.velocities[row, c, 0] + d[3]), float(traj.velocities[row, c, 1] + d[4])),
+            angular_velocity=float(traj.angular_velocities[row, c] + d[5])))
+    return replace(world, bodies=tuple(bodies))
+
+
+def _shift_log(log: ContactLog, row: int, steps: int) -> ContactLog:
+    """A log of a run started at ``row``, in the frames of the whole run."""
+    return ContactLog(steps, {k: tuple((s + row, e + row) for s, e in v) for k, v in log.contacts.items()},
+                      {k: tuple((s + row, e + row) for s, e in v) for k, v in log.sensors.items()})
+
+
+def stitch(base: RawRun, tail: RawRun, row: int) -> RawRun:
+    """``base`` up to ``row`` and ``tail`` (a run started from row ``row``'s state) from it on."""
+    steps = base.log.steps
+    b, t = base.trajectory, tail.trajectory
+    traj = replace(b, positions=np.concatenate([b.positions[:row], t.positions]),
+                   angles=np.concatenate([b.angles[:row], t.angles]),
+                   velocities=np.concatenate([b.velocities[:row], t.velocities]),
+                   angular_velocities=np.concatenate([b.angular_velocities[:row], t.angular_velocities]))
+    awake = np.concatenate([base.awake[:row], tail.awake])
+    shifted = _shift_log(tail.log, row, steps)
+    contacts = {k: splice(base.log.contacts.get(k, ()), shifted.contacts.get(k, ()), row, steps)
+                for k in set(base.log.contacts) | set(shifted.contacts)}
+    sensors = {k: splice(base.log.sensors.get(k, ()), shifted.sensors.get(k, ()), row, steps)
+               for k in set(base.log.sensors) | set(shifted.sensors)}
+    return RawRun(traj, awake, ContactLog(steps, {k: v for k, v in contacts.items() if v},
+                                          {k: v for k, v in sensors.items() if v}))
+
+
+def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, eng: PhysicsEngine,
+             refresh: Callable[[Sequence[int]], None] | None, back: int = 6, window: int = 36
+             ) -> LiveSimulation | None:
+    """Restart the bodies that stray from the video a few frames before ``first_stray``, their state there fitted
+    to the next :data:`ANCHOR_WINDOW` frames (Gauss-Newton on position, angle, velocity and spin of each), and run on
+    to the end. None when the fit does not follow the window better than the run it replaces."""
+    steps = sim.raw.log.steps
+    row = max(1, first_stray - back)
+    end = min(frames, row + window)
+    if end - row < 4:
+        return None
+    if refresh is not None:
+        refresh(list(range(row, end)))
+    traj = sim.raw.trajectory
+    world = sim.world_spec
+    dist = _distances(sim, fit, frames)
+    movers = [fit.uids[s] for s, d in dist.items()
+              if np.nanmax(np.concatenate([d[row:end], [0.0]])) > ANCHOR_MOVER_PX]
+    if not movers:
+        return None
+    # observations of the window: frame k shows row k + 1, so row j of a run started at the anchor is frame
+    # row + j - 1: rows 1 .. end - row are frames row .. end - 1
+    obs = {s: o[row:end] for s, o in fit.observed.items()}
+
+    def residual(params: np.ndarray) -> np.ndarray:
+        offsets = {uid: params[6 * i:6 * i + 6] for i, uid in enumerate(movers)}
+        run = eng.run(_state_world(world, traj, row, offsets), end - row)
+        t = run.trajectory
+        parts = []
+        for s, o in obs.items():
+            uid = fit.uids[s]
+            c = t.column(uid)
+            n = t.positions.shape[0] - 1
+            shape, _color, size = fit.attributes[s]
+            pred = _as_observed(t.positions[1:, c], t.angles[1:, c], (shape, size), o[:n, 2], fit.size)
+            ok = ~np.isnan(o[:n, 0])
+            w = np.where(o[:n, 2] > 0, 0.2, 1.0)  # colour centroids: a fifth of the weight of exact poses
+            parts.append(((pred - o[:n, :2])[ok] * w[ok, None]).ravel())
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    params = np.zeros(6 * len(movers))
+    r = residual(params)
+    cost = float(r @ r)
+    before = cost
+    steps_fd = np.tile([1e-4, 1e-4, 1e-4, 1e-3, 1e-3, 1e-3], len(movers))
+    for _ in range(ANCHOR_ITERATIONS):
+        jac = np.empty((r.size, params.size))
+        for j in range(params.size):
+            dp = params.copy()
+            dp[j] += steps_fd[j]
+            jac[:, j] = (residual(dp) - r) / steps_fd[j]
+        # Levenberg-Marquardt: a state the window does not pin down (a body at rest) keeps its value
+        jtj = np.einsum("ij,ik->jk", jac, jac)
+        damped = jtj + np.diag(1e-3 * np.diag(jtj) + 1e-6)
+        limit = _ANCHOR_STEP_LIMIT[:params.size]
+        step = np.clip(np.linalg.solve(damped, -np.einsum("ij,i->j", jac, r)), -limit, limit)
+        improved = False
+        for alpha in (1.0, 0.5, 0.25, 0.1):
+            trial = params + alpha * step
+            rt = residual(trial)
+            ct = float(rt @ rt)
+            if ct < cost:
+                params, r, cost, improved = trial, rt, ct, True
+                break
+        if not improved:
+            break
+    if cost >= before:
+        return None
+    offsets = {uid: params[6 * i:6 * i + 6] for i, uid in enumerate(movers)}
+    tail = eng.run(_state_world(world, traj, row, offsets), steps - row)
+    raw = stitch(sim.raw, tail, row)
+    return LiveSimulation(world, raw, eng, meta=dict(sim.meta, anchors=sim.meta.get("anchors", 0) + 1))
+
+
+def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
+                frames: int, steps: int = 600, engine: str | PhysicsEngine = "pymunk",
+                measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None = None) -> Reconstruction:
+    """The simulation of a video (see the module docstring). ``measure(obj, frames)`` adds full-resolution
+    measurements and exact poses of those frames to ``obj`` as (shape, size) (the fit windows use them; elsewhere
+    the blob centroids do).
+
+    When the run strays, the (shape, size) readings the detector found less likely are tried in turn (a body of the
+    wrong shape makes the others stray too): the attributes whose run follows the video best are kept."""
+    eng = get_engine(engine)
+    slots = assign_slots(model, static_values, objects)
+    attributes = slot_attributes(model, objects, slots)
+    best = _attempt(model, static_values, objects, slots, attributes, frames, steps, eng, measure, REFITS)
+    if best.first:
+        order = sorted(range(len(objects)), key=lambda i: max(objects[i].shape_size.values(), default=1.0))
+        for i in order:
+            s = slots[i]
+            if s < 0:
+                continue
+            obj = objects[i]
+            ranked = sorted(obj.shape_size.items(), key=lambda kv: -kv[1])
+            tried = 0
+            for (shape, size), p in ranked:
+                triple = (shape, obj.color_name, size)
+                if p < ALTERNATIVE_P or tried >= ALTERNATIVES or triple == attributes[s]:
+                    continue
+                if triple in attributes or not model.slot_allows(s, triple):
+                    continue
+                tried += 1
+                trial = list(attributes)
+                trial[s] = triple
+                attempt = _attempt(model, static_values, objects, slots, trial, frames, steps, eng, measure, 0)
+                if attempt.score < best.score - 0.2:
+                    best, attributes = attempt, trial
+    sim, worst, first = best.simulation, best.worst, best.first
+    fit = StartFit(model, static_values, attributes,
+                   {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}, eng)
+    anchors = 0
+
+    def refresh(which: Sequence[int]) -> None:
+        if measure is None:
+            return
+        for obj, s in zip(objects, slots):
+            if s >= 0:
+                measure(obj, which, attributes[s][0], attributes[s][2])
+                fit.observed[s] = _observations(obj, frames)
+
+    while first and anchors < MAX_ANCHORS:
+        earliest = min(first.values())
+        progressed = False
+        for back, window in ANCHOR_TRIES:
+            restarted = reanchor(sim, fit, frames, earliest, eng, refresh, back, window)
+            if restarted is None:
+                continue
+            # progress: from the restart on, the run follows the video longer than before (earlier frames are the
+            # old run's, whatever outliers they hold)
+            new_worst, new_first = stray(restarted, fit, frames, start=max(1, earliest - back))
+            if new_first and min(new_first.values()) <= earliest:
+                continue
+            sim, worst, first = restarted, new_worst, new_first
+            anchors += 1
+            progressed = True
+            break
+        if not progressed:
+            break
+    return Reconstruction(sim, fit.values(best.units, best.choice), list(slots), list(attributes), worst, first,
+                          best.window, best.refits, anchors)

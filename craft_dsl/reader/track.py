@@ -1,0 +1,368 @@
+"""From blobs to objects: how many bodies of each colour, which blob is which body in each frame, and what each
+body is (shape and size, with probabilities).
+
+Every dynamic object of a CRAFT scene has a unique (shape, colour, size), so a colour holds one body or a few of
+different shapes or sizes. Per colour, the number of bodies is the largest number of separate, substantial blobs
+seen in at least :data:`MIN_FRAMES` frames (bodies of one colour touch, hide in the basket's corner or leave the
+picture for a while, but not for the whole video). In each frame, blobs are given to the colour's bodies by a
+nearest-neighbour assignment from their last positions, with the blob's area as a second cue; a blob covering two
+bodies of one colour (its area about their sum) is given to neither, and that frame is left out for both: the
+physics fills it in.
+
+Shape and size come from the full-resolution measurement (:mod:`craft_dsl.reader.measure`) of the frames where the
+body is complete: the median area, the largest radius over the square root of the area, and the normalised second
+moment, against the values each (shape, size) gives (calibrated on generated videos, :data:`SHAPE_FEATURES`). The
+per-frame likelihoods make the probabilities (a Student-t model, so that one bad frame cannot decide).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..vocabulary import COLORS, SHAPES, SIZES
+from .detect import GRAY, Blob
+from .measure import Measurement, measure
+from .refine import refine
+
+#: A colour counts n bodies when at least this many frames show n separate substantial blobs of it.
+MIN_FRAMES = 6
+#: Blobs smaller than this (full-resolution pixels of body colour) do not count as a body (pupil rims read as gray).
+SUBSTANTIAL_AREA = 16.0
+#: Window (pixels) of the full-resolution measurement.
+WINDOW = 48
+#: (shape, size) -> median and spread of the measured (area px^2, radius / sqrt(area), second moment / area) of a
+#: complete body, from generated MPEG-1 videos (dev seeds; ``benchmarks/reader.py --calibrate`` recomputes them).
+SHAPE_FEATURES: dict[tuple[str, str], tuple[tuple[float, float, float], tuple[float, float, float]]] = {
+    ("circle", "large"): ((329.8, 0.552, 0.1599), (1.3, 0.007, 0.0002)),
+    ("circle", "small"): ((44.8, 0.682, 0.2006), (4.1, 0.079, 0.0118)),
+    ("cube", "large"): ((419.0, 0.707, 0.1667), (6.0, 0.02, 0.003)),
+    ("cube", "small"): ((56.5, 0.669, 0.2002), (4.0, 0.028, 0.0070)),
+    ("triangle", "large"): ((306.7, 0.808, 0.1930), (2.0, 0.005, 0.0005)),
+    ("triangle", "small"): ((127.5, 0.820, 0.2140), (13.8, 0.056, 0.0128)),
+}
+#: Spreads are widened by this factor (compression noise varies between videos).
+SPREAD_FACTOR = 3.0
+#: Measured centroid minus the body's centre, in the body's frame (pixels, x right and y up at angle 0): the colour
+#: mask misses what the eyes cover (calibrated on generated MPEG-1 videos; large bodies have none to speak of).
+EYE_BIAS: dict[tuple[str, str], tuple[float, float]] = {
+    ("circle", "large"): (0.0, 0.0),
+    ("circle", "small"): (0.0, 1.88),
+    ("cube", "large"): (0.0, 0.0),
+    ("cube", "small"): (0.0, 2.26),
+    ("triangle", "large"): (0.0, 0.0),
+    ("triangle", "small"): (0.0, 0.32),
+}
+#: A render-and-compare fit worse than this (grey levels, RMS) is not a pose (another body in the way).
+MAX_REFINE_RMS = 30.0
+#: Residual difference (grey levels) that makes one (shape, size) e^(1/2) times less likely than the best.
+RESIDUAL_SCALE = 1.5
+#: The shape features' probability is not trusted below this when the drawing's residual is weighed in.
+FEATURE_FLOOR = 1e-3
+
+
+@dataclass
+class TrackedObject:
+    """One body: its colour, the blob it has in each frame (None: not seen alone), and what it is."""
+
+    color: int
+    blobs: list[Blob | None]
+    shape_size: dict[tuple[str, str], float] = field(default_factory=dict)  # probability of each (shape, size)
+    measurements: dict[int, Measurement] = field(default_factory=dict)  # full-resolution, by frame
+    poses: dict[int, tuple[float, float, float]] = field(default_factory=dict)  # render-and-compare (x, y, angle)
+    pose_shape: tuple[str, str] | None = None  # the (shape, size) the poses were fitted as
+
+    @property
+    def color_name(self) -> str:
+        return COLORS[self.color]
+
+    def best(self) -> tuple[str, str]:
+        return max(self.shape_size, key=lambda k: self.shape_size[k]) if self.shape_size else ("cube", "small")
+
+    def seen(self) -> list[int]:
+        return [k for k, b in enumerate(self.blobs) if b is not None]
+
+
+def count_per_color(blobs: Sequence[Blob], frames: int) -> dict[int, int]:
+    """Number of bodies of each colour (see the module docstring)."""
+    per_frame: dict[int, np.ndarray] = defaultdict(lambda: np.zeros(frames, dtype=int))
+    for b in blobs:
+        if b.area >= SUBSTANTIAL_AREA:
+            per_frame[b.color][b.frame] += 1
+    out = {}
+    for color, counts in per_frame.items():
+        n = 0
+        while np.count_nonzero(counts >= n + 1) >= MIN_FRAMES:
+            n += 1
+        if n:
+            out[color] = n
+    return out
+
+
+def _assign(previous: list[tuple[float, float] | None], areas: list[float | None], candidates: list[Blob]
+            ) -> list[Blob | None]:
+    """Give each body (by its last position and area) one of the frame's blobs, or none."""
+    n = len(previous)
+    out: list[Blob | None] = [None] * n
+    if not candidates:
+        return out
+    if n == 1:
+        out[0] = max(candidates, key=lambda b: b.area)
+        return out
+    pairs = []
+    for i in range(n):
+        for j, b in enumerate(candidates):
+            p = previous[i]
+            d = math.hypot(b.x - p[0], b.y - p[1]) if p is not None else 50.0
+            a = areas[i]
+            ratio = abs(math.log(b.area / a)) if a else 0.0
+            pairs.append((d + 20.0 * ratio, i, j))
+    pairs.sort()
+    used_i: set[int] = set()
+    used_j: set[int] = set()
+    total = sum(a for a in areas if a)
+    for _cost, i, j in pairs:
+        if i in used_i or j in used_j:
+            continue
+        b = candidates[j]
+        if total and len([a for a in areas if a]) == n and b.area > 0.8 * total and len(candidates) < n:
+            continue  # one blob as large as all the colour's bodies together: they touch
+        out[i] = b
+        used_i.add(i)
+        used_j.add(j)
+    return out
+
+
+def track(blobs: Sequence[Blob], frames: int, counts: dict[int, int] | None = None) -> list[TrackedObject]:
+    """The bodies of every colour with their blob per frame."""
+    counts = counts if counts is not None else count_per_color(blobs, frames)
+    by_frame: dict[tuple[int, int], list[Blob]] = defaultdict(list)
+    for b in blobs:
+        if b.area >= SUBSTANTIAL_AREA:
+            by_frame[(b.color, b.frame)].append(b)
+    objects: list[TrackedObject] = []
+    for color in sorted(counts):
+        n = counts[color]
+        tracks: list[list[Blob | None]] = [[None] * frames for _ in range(n)]
+        previous: list[tuple[float, float] | None] = [None] * n
+        areas: list[float | None] = [None] * n
+        # seed the order of the bodies by area where all are first seen apart
+        for k in range(frames):
+            chosen = _assign(previous, areas, by_frame.get((color, k), []))
+            for i, chosen_blob in enumerate(chosen):
+                if chosen_blob is not None:
+                    tracks[i][k] = chosen_blob
+                    previous[i] = (chosen_blob.x, chosen_blob.y)
+                    if not chosen_blob.touches_edge:
+                        old = areas[i]
+                        areas[i] = chosen_blob.area if old is None else 0.9 * old + 0.1 * chosen_blob.area
+        objects += [TrackedObject(color, t) for t in tracks]
+    return objects
+
+
+def _position(obj: TrackedObject, k: int) -> tuple[float, float]:
+    b = obj.blobs[k]
+    assert b is not None
+    return (b.x, b.y)
+
+
+def same_body(a: TrackedObject, b: TrackedObject) -> bool:
+    """Whether two tracks of different colours are one body read in two colours (a small dark body loses its
+    chroma to the compression and reads as gray in some frames): they are seen together in few frames, always at
+    the same place when they are, and where one is seen the other was seen close by a few frames before or after."""
+    sa, sb = set(a.seen()), set(b.seen())
+    if not sa or not sb:
+        return False
+    both = sa & sb
+    if len(both) > 0.3 * min(len(sa), len(sb)):
+        close = sum(1 for k in both if math.dist(_position(a, k), _position(b, k)) < 8.0)
+        if close < 0.8 * len(both):
+            return False
+    near = 0
+    checked = 0
+    for k in sorted(sa - both)[::3]:
+        for d in (1, -1, 2, -2, 3, -3):
+            if k + d in sb:
+                checked += 1
+                near += int(math.dist(_position(a, k), _position(b, k + d)) < 12.0)
+                break
+    return checked >= 3 and near >= 0.8 * checked
+
+
+def merge_colour_splits(objects: list[TrackedObject]) -> list[TrackedObject]:
+    """Join the tracks of a body read in two colours (:func:`same_body`); the chromatic colour wins over gray, else
+    the colour seen in more frames."""
+    out = list(objects)
+    merged = True
+    while merged:
+        merged = False
+        for i, a in enumerate(out):
+            for b in out[i + 1:]:
+                if a.color == b.color or not same_body(a, b):
+                    continue
+                keep, drop = (a, b) if (b.color == GRAY or (a.color != GRAY and len(a.seen()) >= len(b.seen()))) \
+                    else (b, a)
+                blobs = [kb if kb is not None else db for kb, db in zip(keep.blobs, drop.blobs)]
+                out = [o for o in out if o is not a and o is not b] + [TrackedObject(keep.color, blobs)]
+                merged = True
+                break
+            if merged:
+                break
+    return out
+
+
+def attached_fraction(obj: TrackedObject, others: Sequence[TrackedObject], distance: float = 14.0) -> float:
+    """Share of the frames where ``obj`` is seen in which a larger blob of another colour lies within ``distance``
+    pixels: pieces of compression colour (a dark body's rim read as gray) ride along with their body."""
+    seen = obj.seen()
+    if not seen:
+        return 1.0
+    attached = 0
+    for k in seen:
+        b = obj.blobs[k]
+        assert b is not None
+        for o in others:
+            if o is obj or o.color == obj.color:
+                continue
+            c = o.blobs[k]
+            if c is not None and c.area > b.area and math.hypot(c.x - b.x, c.y - b.y) < distance + math.sqrt(
+                    c.area / math.pi):
+                attached += 1
+                break
+    return attached / len(seen)
+
+
+def select_objects(objects: list[TrackedObject], count: int | None) -> list[TrackedObject]:
+    """The ``count`` most substantial bodies (all when None): pieces that ride along another body go first, then
+    the bodies seen least (frames seen times median blob area)."""
+    if count is None or len(objects) <= count:
+        return objects
+
+    def evidence(o: TrackedObject) -> tuple[bool, float]:
+        areas = [b.area for b in o.blobs if b is not None]
+        return attached_fraction(o, objects) < 0.6, len(areas) * float(np.median(areas)) if areas else 0.0
+
+    ranked = sorted(objects, key=evidence, reverse=True)
+    keep = set(map(id, ranked[:count]))
+    return [o for o in objects if id(o) in keep]
+
+
+def measure_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, which: Sequence[int]) -> None:
+    """Full-resolution measurements of ``obj`` in the frames ``which`` (where it has a blob); cached on it."""
+    size = frames.shape[1]
+    half = WINDOW // 2
+    for k in which:
+        if k in obj.measurements:
+            continue
+        b = obj.blobs[k]
+        if b is None:
+            continue
+        x0 = min(max(int(b.x) - half, 0), size - WINDOW)
+        y0 = min(max(int(b.y) - half, 0), size - WINDOW)
+        m = measure(frames[k, y0:y0 + WINDOW, x0:x0 + WINDOW], background[y0:y0 + WINDOW, x0:x0 + WINDOW],
+                    obj.color, (y0, x0), seed=(int(b.y) - y0, int(b.x) - x0))
+        if m is not None:
+            obj.measurements[k] = m
+
+
+def refine_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, which: Sequence[int],
+                  shape: str, size: str) -> None:
+    """Exact poses (render and compare, :mod:`craft_dsl.reader.refine`) of ``obj`` in the frames ``which`` where it
+    was measured complete, as the body (shape, size); cached on it (until the shape changes)."""
+    if obj.pose_shape != (shape, size):
+        obj.poses.clear()
+        obj.pose_shape = (shape, size)
+    todo = [k for k in which if k not in obj.poses and k in obj.measurements and obj.measurements[k].complete]
+    if not todo:
+        return
+    bx, by = EYE_BIAS.get((shape, size), (0.0, 0.0))
+    xs, ys, angles = [], [], []
+    for k in todo:
+        m = obj.measurements[k]
+        a = m.eye_angle()
+        a = math.pi if a is None else a
+        c, s = math.cos(a), math.sin(a)
+        # remove the eye bias of the colour centroid (body frame, y up; pixel rows go down)
+        xs.append(m.x - (c * bx - s * by))
+        ys.append(m.y + (s * bx + c * by))
+        angles.append(a)
+    x, y, fitted, rms = refine(frames, background, shape, size, obj.color, todo, np.array(xs), np.array(ys),
+                               np.array(angles))
+    for i, k in enumerate(todo):
+        if np.isfinite(rms[i]) and rms[i] < MAX_REFINE_RMS:
+            obj.poses[k] = (float(x[i]), float(y[i]), float(fitted[i]))
+
+
+def shape_residual(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, shape: str, size: str,
+                   samples: int = 8) -> float:
+    """Median render-and-compare residual (grey levels) of ``obj`` drawn as (shape, size) in a few complete
+    frames: the wrong shape leaves its corners or its missing corners in the residual."""
+    done = [k for k, m in sorted(obj.measurements.items()) if m.complete]
+    if not done:
+        return math.inf
+    pick = [done[int(i)] for i in np.unique(np.linspace(0, len(done) - 1, min(samples, len(done))).round())]
+    bx, by = EYE_BIAS.get((shape, size), (0.0, 0.0))
+    xs, ys, angles = [], [], []
+    for k in pick:
+        m = obj.measurements[k]
+        a = m.eye_angle()
+        a = math.pi if a is None else a
+        c, s = math.cos(a), math.sin(a)
+        xs.append(m.x - (c * bx - s * by))
+        ys.append(m.y + (s * bx + c * by))
+        angles.append(a)
+    _x, _y, _a, rms = refine(frames, background, shape, size, obj.color, pick, np.array(xs), np.array(ys),
+                             np.array(angles))
+    finite = rms[np.isfinite(rms)]
+    return float(np.median(finite)) if finite.size else math.inf
+
+
+def verify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray) -> None:
+    """Where the features leave a second (shape, size) possible, let the drawing decide: each candidate's
+    probability is weighted by exp(-residual^2 / (2 * RESIDUAL_SCALE^2)) relative to the best."""
+    ranked = sorted(obj.shape_size.items(), key=lambda kv: -kv[1])
+    # the three shapes of the likeliest size (the features tell sizes apart far better than small shapes); a large
+    # body's features decide alone unless a second reading is possible
+    size = ranked[0][0][1]
+    if size == "large" and ranked[1][1] < 1e-4:
+        return
+    candidates = [(shape, size) for shape in SHAPES]
+    residual = {key: shape_residual(obj, frames, background, *key) for key in candidates}
+    best = min(residual.values())
+    if not math.isfinite(best):
+        return
+    weights = {key: max(obj.shape_size[key], FEATURE_FLOOR) * math.exp(
+        -((residual[key] - best) / RESIDUAL_SCALE) ** 2 / 2) if key in residual else 0.0 for key in obj.shape_size}
+    total = sum(weights.values())
+    obj.shape_size = {key: w / total for key, w in weights.items()}
+
+
+def classify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, samples: int = 16) -> None:
+    """Probabilities of each (shape, size) from up to ``samples`` complete frames (see the module docstring)."""
+    seen = [k for k in obj.seen() if not obj.blobs[k].touches_edge]  # type: ignore[union-attr]
+    if not seen:
+        seen = obj.seen()
+    pick = [seen[int(i)] for i in np.unique(np.linspace(0, len(seen) - 1, min(samples, len(seen))).round())]
+    measure_frames(obj, frames, background, pick)
+    features = np.array([(m.area, m.radius / math.sqrt(m.area), (m.mxx + m.myy) / m.area)
+                         for k, m in obj.measurements.items() if k in pick and m.complete])
+    if features.size == 0:
+        features = np.array([(m.area, m.radius / math.sqrt(m.area), (m.mxx + m.myy) / m.area)
+                             for k, m in obj.measurements.items() if k in pick])
+    if features.size == 0:
+        obj.shape_size = {(s, z): 1.0 / 6 for s in SHAPES for z in SIZES}
+        return
+    log_like = {}
+    for key, (centre, spread) in SHAPE_FEATURES.items():
+        floor = np.array([0.06 * centre[0], 0.03, 0.006])
+        z = (features - np.array(centre)) / np.maximum(np.array(spread) * SPREAD_FACTOR, floor)
+        # Student-t (3 degrees of freedom) per feature and frame
+        log_like[key] = float(np.sum(-2.0 * np.log1p(z * z / 3.0)))
+    top = max(log_like.values())
+    weights = {k: math.exp(v - top) for k, v in log_like.items()}
+    total = sum(weights.values())
+    obj.shape_size = {k: w / total for k, w in weights.items()}

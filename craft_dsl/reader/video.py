@@ -1,0 +1,109 @@
+"""Decoding a CRAFT video into RGB frames, uint8 [T, H, W, 3].
+
+Two decoders, both shipping their own FFmpeg: PyAV (in-process; the ``reader`` and ``torch`` extras) and
+imageio-ffmpeg (a core dependency; an ``ffmpeg`` subprocess writing raw frames to a pipe). Measured on the same
+600-frame MPEG-1 videos (``benchmarks/reader.py --decoders``), PyAV is the faster on an idle machine and uses less
+CPU in all, so it is used when installed; on a busy machine the pipe, whose decoder runs in its own process, can be
+faster (docs/reader.md). Both decode single-threaded so that several videos can be read in parallel processes.
+
+Raw MPEG-1 streams (``.mpg``, as the published dataset stores them) carry no trustworthy timestamps, so frames are
+taken by position: frame ``k`` shows the state after ``k + 1`` physics steps.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+
+from ..errors import ReaderError
+
+Decoder = Literal["auto", "pyav", "ffmpeg"]
+DECODERS: tuple[str, ...] = ("auto", "pyav", "ffmpeg")
+
+
+def have_pyav() -> bool:
+    try:
+        import av  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _check_file(path: Path) -> None:
+    if not path.is_file():
+        raise ReaderError(f"{path}: no such video file")
+    if path.stat().st_size == 0:
+        raise ReaderError(f"{path}: the video file is empty")
+
+
+def _decode_pyav(path: Path) -> np.ndarray:
+    import av
+
+    try:
+        fmt = "mpegvideo" if path.suffix.lower() == ".mpg" else None
+        container = av.open(str(path), format=fmt)
+    except Exception as err:  # noqa: BLE001 - PyAV raises its own error classes
+        raise ReaderError(f"{path}: cannot be decoded ({err})") from None
+    try:
+        stream = container.streams.video[0]
+        stream.thread_type = "NONE"
+        frames = [f.to_ndarray(format="rgb24") for f in container.decode(stream)]
+    except Exception as err:  # noqa: BLE001
+        raise ReaderError(f"{path}: cannot be decoded ({err})") from None
+    finally:
+        container.close()
+    if not frames:
+        raise ReaderError(f"{path}: the video has no frames")
+    return np.stack(frames)
+
+
+def _probe_size(path: Path, exe: str) -> tuple[int, int]:
+    """(width, height) from ffmpeg's stream description."""
+    import re
+
+    proc = subprocess.run([exe, "-hide_banner", "-i", str(path)], capture_output=True, text=True, check=False)
+    match = re.search(r"Video:.*?(\d{2,5})x(\d{2,5})", proc.stderr)
+    if match is None:
+        raise ReaderError(f"{path}: not a video ffmpeg can read")
+    return int(match.group(1)), int(match.group(2))
+
+
+def _decode_ffmpeg(path: Path) -> np.ndarray:
+    import imageio_ffmpeg
+
+    exe = imageio_ffmpeg.get_ffmpeg_exe()
+    width, height = _probe_size(path, exe)
+    fmt = ["-f", "mpegvideo"] if path.suffix.lower() == ".mpg" else []
+    cmd = [exe, "-loglevel", "error", "-threads", "1", *fmt, "-i", str(path), "-f", "rawvideo", "-pix_fmt",
+           "rgb24", "-"]
+    proc = subprocess.run(cmd, capture_output=True, check=False)
+    if proc.returncode != 0:
+        message = proc.stderr.decode("utf-8", "replace").strip().splitlines()
+        raise ReaderError(f"{path}: cannot be decoded ({message[-1] if message else 'ffmpeg failed'})")
+    data = np.frombuffer(proc.stdout, dtype=np.uint8)
+    frame_bytes = width * height * 3
+    if data.size == 0 or data.size % frame_bytes:
+        raise ReaderError(f"{path}: decoded {data.size} bytes, not a whole number of {width}x{height} frames")
+    return data.reshape(-1, height, width, 3)
+
+
+def decode(path: str | os.PathLike[str], decoder: Decoder = "auto") -> np.ndarray:
+    """RGB frames of a video, uint8 [T, H, W, 3]; ``decoder``: ``auto`` (PyAV if installed), ``pyav``,
+    ``ffmpeg`` (imageio-ffmpeg)."""
+    target = Path(path)
+    _check_file(target)
+    if decoder not in DECODERS:
+        raise ReaderError(f"unknown decoder {decoder!r}; allowed: {', '.join(DECODERS)}")
+    if decoder == "pyav" or (decoder == "auto" and have_pyav()):
+        if not have_pyav():
+            raise ReaderError("the pyav decoder needs PyAV: pip install 'craft-dsl[reader]'")
+        frames = _decode_pyav(target)
+    else:
+        frames = _decode_ffmpeg(target)
+    if frames.shape[1] != frames.shape[2]:
+        raise ReaderError(f"{target}: frames are {frames.shape[2]}x{frames.shape[1]}; CRAFT videos are square")
+    return frames
