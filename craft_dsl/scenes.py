@@ -53,6 +53,7 @@ __all__ = [
     "builtin_scene_dir",
     "evaluate_expression",
     "list_scenes",
+    "layout_from_data",
     "load_layout_file",
     "load_scene",
     "parse_expression",
@@ -504,6 +505,12 @@ def load_layout_file(path: str | Path) -> SceneLayout:
     p = Path(path)
     data = read_json(p, "scene file", error=SceneFileError, max_bytes=MAX_SCENE_FILE_BYTES)
     return _parse_layout(data, str(p), p)
+
+
+def layout_from_data(data: object, source: str = "scene layout") -> SceneLayout:
+    """Validate a layout already read (e.g. a file's JSON); errors name ``source``, as :func:`load_layout_file`'s
+    name the file."""
+    return _parse_layout(data, source, None)
 
 
 @functools.lru_cache(maxsize=64)

@@ -207,7 +207,8 @@ def test_cli_video_options(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert (out / "downsampled" / "30-fps" / "sid_6" / "000000.mp4").is_file()
     assert "Hugging Face" in capsys.readouterr().out
     assert main(["generate", "--size", "1", "--downsampled", "5,x", "--out", str(out)]) == 2
-    assert "--downsampled '5,x': expected frame rates" in capsys.readouterr().err
+    assert "--downsampled '5,x': 'x' is not one of the frame rates or a range of them; allowed: 1-60" in \
+        capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["generate", "--size", "1", "--video-format", "avi", "--out", str(out)])
     assert "invalid choice: 'avi'" in capsys.readouterr().err

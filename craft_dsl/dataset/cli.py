@@ -12,21 +12,10 @@ import time
 from typing import Any
 
 from ..errors import CraftError
+from ..ranges import parse_ranges, parse_scenes
 
-
-def _int_list(text: str, option: str = "--scenes", example: str = "scene ids like 1,2,5-7") -> tuple[int, ...]:
-    """``"1,2,5-7"`` -> (1, 2, 5, 6, 7)."""
-    out: list[int] = []
-    for part in text.split(","):
-        part = part.strip()
-        if not part:
-            continue
-        lo, sep, hi = part.partition("-")
-        try:
-            out.extend(range(int(lo), int(hi) + 1) if sep else [int(lo)])
-        except ValueError:
-            raise CraftError(f"{option} {text!r}: expected {example}") from None
-    return tuple(out)
+#: Frame rates ``--downsampled`` accepts (the videos run at 60 frames per second).
+DOWNSAMPLED_FPS = (1, 60)
 
 
 class _Bars:
@@ -62,9 +51,9 @@ def cmd_generate(args: argparse.Namespace) -> int:
                               "workers": args.workers, "videos": args.videos, "engine": args.engine,
                               "balance": not args.no_balance, "video_format": args.video_format}
     if args.downsampled:
-        fields["downsampled"] = _int_list(args.downsampled, "--downsampled", "frame rates like 5,10")
+        fields["downsampled"] = parse_ranges(args.downsampled, "--downsampled", *DOWNSAMPLED_FPS, "frame rates")
     if args.scenes is not None:
-        fields["scenes"] = _int_list(args.scenes)
+        fields["scenes"] = tuple(parse_scenes(args.scenes))
     if args.templates is not None:
         fields["templates"] = tuple(t.strip() for t in args.templates.split(",") if t.strip())
     config = GenerationConfig.make(**fields)
@@ -127,7 +116,8 @@ def add_commands(sub: Any) -> None:
     gen.add_argument("--size", type=int, required=True, help="number of videos")
     gen.add_argument("--seed", type=int, default=0, help="the seed of every random draw (default 0)")
     gen.add_argument("--out", required=True, help="output folder")
-    gen.add_argument("--scenes", help="scene ids, e.g. 1,2 or 1-20 (default 1-20)")
+    gen.add_argument("--scenes", help="scene ids, ranges and layout files, e.g. 1,2,5-7 or 1-4,my_layouts/ramp.json "
+                                      "(default: all, 1-20); a layout's records use its own \"scene\" id")
     gen.add_argument("--workers", type=int, default=1,
                      help="local worker processes (default 1); the output is identical for any number")
     gen.add_argument("--executor", default="local", choices=("local", "dask"),
@@ -147,7 +137,7 @@ def add_commands(sub: Any) -> None:
     gen.add_argument("--video-format", default="mpg", choices=("mpg", "mp4"),
                      help="mpg: MPEG-1 as the published CRAFT dataset (default); mp4: H.264 for modern loaders")
     gen.add_argument("--downsampled", metavar="FPS",
-                     help="with --videos, also write H.264 videos at these frame rates, e.g. 5,10 "
+                     help="with --videos, also write H.264 videos at these frame rates (1-60), e.g. 5,10 "
                           "(downsampled/<fps>-fps/, as the published models read them)")
     gen.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"), help="physics engine")
     gen.add_argument("--templates", help="comma-separated template ids (default: all 67)")

@@ -288,6 +288,17 @@ def _md_table(header: Sequence[str], body: Iterable[Sequence[Any]]) -> list[str]
     return lines
 
 
+def _setting_cell(name: str, value: Any) -> str:
+    """A generation setting in the card: templates counted, custom scene layouts by id and hash."""
+    from .custom_scenes import recorded_scenes_text
+
+    if name == "templates":
+        return f"{len(value)} templates"
+    if name == "scenes" and any(isinstance(e, dict) for e in value or ()):
+        return "`" + recorded_scenes_text(value) + "`"
+    return "`" + json.dumps(value) + "`"
+
+
 def card_text(folder: DatasetFolder, counts: Mapping[str, Mapping[str, int]], file_format: str) -> str:
     """The whole dataset card: front matter, then counts, settings, statistics and baselines."""
     from .stats import BASELINES, COLUMNS, heuristic_baselines, paper_baselines
@@ -316,8 +327,13 @@ def card_text(folder: DatasetFolder, counts: Mapping[str, Mapping[str, int]], fi
             + (f" Parts without questions ({', '.join(empty)}) have no data files." if empty else ""), ""]
     if folder.config:
         out += ["## Generation settings", ""]
-        out += _md_table(["setting", "value"], [[k, "`" + json.dumps(v) + "`" if k != "templates" else
-                                                 f"{len(v)} templates"] for k, v in sorted(folder.config.items())])
+        out += _md_table(["setting", "value"], [[k, _setting_cell(k, v)] for k, v in sorted(folder.config.items())])
+        customs = [e for e in folder.config.get("scenes") or () if isinstance(e, dict)]
+        if customs:
+            ids = ", ".join(str(e.get("scene")) for e in customs)
+            out += ["", (f"Scenes {ids} are custom layouts" if len(customs) > 1 else f"Scene {ids} is a custom layout")
+                    + ", recorded in full in `generation_config.json`; the `hard` split holds custom layouts out "
+                    "(test)."]
         out.append("")
     out += ["## Statistics", "", "Questions per paper category and answer type:", ""]
     per_cat: Counter[tuple[str, str]] = Counter((r["category"], str(r.get("answer_type"))) for r in records)

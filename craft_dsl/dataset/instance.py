@@ -63,7 +63,8 @@ def instance_seeds(seed: int, instance_id: int) -> tuple[int, np.random.SeedSequ
 
 @dataclass(frozen=True)
 class InstanceTask:
-    """Everything a worker needs for one video (picklable, no paths: workers write nothing)."""
+    """Everything a worker needs for one video (picklable, no paths: workers write nothing nor read the user's
+    files). ``layout``: the canonical JSON of a custom scene layout (empty for a built-in scene)."""
 
     instance_id: int
     scene: int
@@ -77,6 +78,7 @@ class InstanceTask:
     questions: bool = True
     media: bool = False
     downsampled: tuple[int, ...] = ()
+    layout: str = ""
 
 
 @dataclass(frozen=True)
@@ -194,7 +196,7 @@ def run_instance(task: InstanceTask, clock: StageClock | None = None) -> Instanc
     vpath = video_path(task.scene, task.instance_id, task.video_format)
     sim_seed, question_ss, perturb_ss = instance_seeds(task.seed, task.instance_id)
     with stage("factual simulation"):
-        sim = simulate(task.scene, seed=sim_seed, steps=task.steps, engine=engine)
+        sim = simulate(_scene_of(task, sim_seed), seed=sim_seed, steps=task.steps, engine=engine)
         sim.meta["video_filename"] = vpath
     media = _MediaJob(sim, task) if task.media else None
     shard = None
@@ -219,6 +221,18 @@ def run_instance(task: InstanceTask, clock: StageClock | None = None) -> Instanc
     with stage("media (waiting for the encoder)"):
         files = media.result() if media is not None else ()
     return InstanceResult(task.instance_id, shard, files)
+
+
+def _scene_of(task: InstanceTask, sim_seed: int) -> Any:
+    """What to simulate: the built-in scene id, or the world drawn from the task's custom layout."""
+    if not task.layout:
+        return task.scene
+    from ..scenes import layout_from_data, sample_world
+
+    layout = layout_from_data(json.loads(task.layout), f"custom scene {task.scene}")
+    if layout.scene != task.scene:
+        raise CraftError(f"internal error: task of scene {task.scene} carries the layout of scene {layout.scene}")
+    return sample_world(layout, sim_seed)
 
 
 def _shard(task: InstanceTask, sim: Any, sim_seed: int, vpath: str, generated: list[dict[str, Any]],

@@ -35,7 +35,9 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from ..atomic import atomic_path
 from ..errors import CraftError
+from ..scenes import list_scenes
 from ..templates import templates
+from .custom_scenes import CustomScene, builtin_id_clash, recorded_scenes_text, scene_entry
 from .executors import Executor, LocalExecutor
 from .instance import InstanceResult, InstanceTask, instance_seeds, run_instance, shard_is_complete
 from .layout import DEFAULT_VIDEO_FORMAT, VideoFormat, id6, media_complete, resolve
@@ -69,13 +71,19 @@ RECORDED_FIELDS: tuple[str, ...] = ("format_version", *CONTENT_FIELDS, *MEDIA_FI
 LOG_FILE = "generation.log"
 
 class GenerationConfig(BaseModel):
-    """What to generate. ``size`` videos spread over ``scenes`` in blocks (see :func:`work_list`)."""
+    """What to generate. ``size`` videos spread over ``scenes`` in blocks (see :func:`work_list`).
+
+    ``scenes`` holds built-in scene ids and custom layouts: a layout file (str or Path) or a
+    :class:`~craft_dsl.scenes.SceneLayout` given here is read once and held as a :class:`CustomScene` (its
+    canonical JSON; see :mod:`craft_dsl.dataset.custom_scenes`).
+    """
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
     size: int = Field(ge=1, description="number of videos (simulations) to generate")
     seed: int = Field(0, ge=0, description="the one seed every random draw derives from")
-    scenes: tuple[int, ...] = Field(tuple(range(1, 21)), description="scene layout ids (1-20)")
+    scenes: tuple[int | CustomScene, ...] = Field(
+        tuple(range(1, 21)), description="built-in scene ids (1-20) and custom layouts (files, held as CustomScene)")
     steps: int = Field(600, ge=1, description="simulation steps per video (60 per second)")
     perturbations: int = Field(3, ge=0, description="perturbed re-simulations per video (0: no filter)")
     amount: float = Field(0.02, ge=0.0, le=0.5, description="perturbation noise amount")
@@ -87,16 +95,35 @@ class GenerationConfig(BaseModel):
     templates: tuple[str, ...] = Field(tuple(templates()), description="template ids to instantiate")
     balance: bool = Field(True, description="answer balancing (off: keep every question that passed the filters)")
 
+    @field_validator("scenes", mode="before")
+    @classmethod
+    def _read_layouts(cls, v: Any) -> Any:
+        if isinstance(v, (str, Path)):
+            v = (v,)
+        return tuple(scene_entry(item) for item in v) if isinstance(v, (list, tuple)) else v
+
     @field_validator("scenes")
     @classmethod
-    def _check_scenes(cls, v: tuple[int, ...]) -> tuple[int, ...]:
+    def _check_scenes(cls, v: tuple[int | CustomScene, ...]) -> tuple[int | CustomScene, ...]:
         if not v:
-            raise ValueError("give at least one scene id")
-        bad = [s for s in v if not 1 <= s <= 20]
+            raise ValueError("give at least one scene id or layout file")
+        builtin = set(list_scenes())
+        bad = [s for s in v if isinstance(s, int) and s not in builtin]
         if bad:
-            raise ValueError(f"scene ids are 1-20, not {bad}")
-        if len(set(v)) != len(v):
-            raise ValueError(f"scene ids repeat: {list(v)}")
+            raise ValueError(f"built-in scene ids are {min(builtin)}-{max(builtin)}, not {bad} (a custom layout is "
+                             "given as its file)")
+        for s in v:
+            clash = builtin_id_clash(s) if isinstance(s, CustomScene) else None
+            if clash:
+                raise ValueError(clash)
+        seen: dict[int, int | CustomScene] = {}
+        for s in v:
+            sid = s if isinstance(s, int) else s.scene
+            if sid in seen:
+                both = [x.describe() if isinstance(x, CustomScene) else f"built-in scene {x}" for x in (seen[sid], s)]
+                raise ValueError(f"scene id {sid} appears twice ({both[0]}; {both[1]}): each scene of a dataset "
+                                 "needs an id of its own (a layout's is its \"scene\" field)")
+            seen[sid] = s
         return v
 
     @field_validator("templates")
@@ -125,8 +152,19 @@ class GenerationConfig(BaseModel):
         try:
             return cls(**kwargs)
         except ValidationError as err:
-            msgs = [f"{'.'.join(str(p) for p in e['loc']) or 'config'}: {e['msg']}" for e in err.errors()]
+            msgs = [f"{'.'.join(str(p) for p in e['loc']) or 'config'}: {e['msg'].removeprefix('Value error, ')}"
+                    for e in err.errors()]
             raise CraftError("bad generation config: " + "; ".join(msgs)) from None
+
+    @property
+    def scene_ids(self) -> tuple[int, ...]:
+        """The scene id of every entry of ``scenes`` (a custom layout's own ``scene`` field)."""
+        return tuple(s if isinstance(s, int) else s.scene for s in self.scenes)
+
+    @property
+    def custom_scenes(self) -> dict[int, CustomScene]:
+        """The custom layouts by scene id."""
+        return {s.scene: s for s in self.scenes if isinstance(s, CustomScene)}
 
     def content(self) -> dict[str, Any]:
         """The fields that decide the generated content (the report's ``config``)."""
@@ -151,10 +189,10 @@ def work_list(config: GenerationConfig) -> list[tuple[int, int]]:
     first scenes, so exactly ``size`` videos are made. When ``size`` is a multiple of the number of scenes the
     ids match the original's (``scene = scenes[id // (size // len(scenes))]``).
     """
-    n = len(config.scenes)
-    per, extra = divmod(config.size, n)
+    scenes = config.scene_ids
+    per, extra = divmod(config.size, len(scenes))
     out: list[tuple[int, int]] = []
-    for k, scene in enumerate(config.scenes):
+    for k, scene in enumerate(scenes):
         out.extend((len(out), scene) for _ in range(per + (1 if k < extra else 0)))
     return out
 
@@ -182,11 +220,21 @@ def _write_small(data: Any, path: Path) -> None:
 
 
 def differing_settings(old: Any, new: dict[str, Any]) -> list[str]:
-    """The recorded settings that differ, as ``name OLD here, NEW now`` (``templates`` by name only)."""
+    """The recorded settings that differ, as ``name OLD here, NEW now`` (``templates`` by name only, custom scene
+    layouts by id and hash)."""
     if not isinstance(old, dict):
         return ["generation_config.json unreadable"]
-    return [f"{k} {old.get(k)!r} here, {new[k]!r} now" if k != "templates" else "templates"
-            for k in RECORDED_FIELDS if old.get(k) != new[k]]
+    out = []
+    for k in RECORDED_FIELDS:
+        if old.get(k) == new[k]:
+            continue
+        if k == "templates":
+            out.append("templates")
+        elif k == "scenes":
+            out.append(f"scenes {recorded_scenes_text(old.get(k))} here, {recorded_scenes_text(new[k])} now")
+        else:
+            out.append(f"{k} {old.get(k)!r} here, {new[k]!r} now")
+    return out
 
 
 def _prepare_folder(root: Path, config: GenerationConfig, force: bool, log: RunLog) -> None:
@@ -302,9 +350,12 @@ def _peak_memory() -> str:
 
 def instance_task(config: GenerationConfig, instance_id: int, scene: int, questions: bool = True,
                   media: bool = False) -> InstanceTask:
-    """The task of one video: its questions (the shard) and/or its media files."""
+    """The task of one video: its questions (the shard) and/or its media files; a custom scene's task carries its
+    layout's canonical JSON."""
+    custom = config.custom_scenes.get(scene)
     return InstanceTask(instance_id, scene, config.seed, config.steps, config.perturbations, config.amount,
-                        config.engine, config.templates, config.video_format, questions, media, config.downsampled)
+                        config.engine, config.templates, config.video_format, questions, media, config.downsampled,
+                        custom.layout if custom is not None else "")
 
 
 class _MergeThread:
@@ -383,6 +434,8 @@ def generate_dataset(
         resumed = len(done)
         log.write(f"start: {len(work)} videos, {resumed} already done, {len(tasks)} tasks on {executor.description}"
                   + (f"; removed {swept} temporary files of an interrupted run" if swept else ""))
+        for custom in config.custom_scenes.values():
+            log.write(f"custom scene {custom.describe()}")
         if resumed:
             (echo or (lambda _m: None))(f"resuming: {resumed} of {len(work)} videos already done")
         start = time.perf_counter()

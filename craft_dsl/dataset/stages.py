@@ -37,8 +37,9 @@ def video_path(scene: int, instance_id: int, video_format: str = DEFAULT_VIDEO_F
 
 
 def hard_part(scene: int) -> str:
-    """The part of the hard split a scene's questions go to."""
-    return next(part for part in SPLIT_PARTS if scene in HARD_SPLIT[part])
+    """The part of the hard split a scene's questions go to; a custom layout's scene (not in :data:`HARD_SPLIT`)
+    is held out: ``test``."""
+    return next((part for part in SPLIT_PARTS if scene in HARD_SPLIT[part]), "test")
 
 
 def random_parts(videos: Iterable[int], seed: int) -> dict[int, str]:
@@ -163,8 +164,8 @@ def _keys(records: Iterable[Mapping[str, Any]]) -> list[dict[str, int]]:
 
 
 def hard_split(records: Sequence[Mapping[str, Any]], scene_of: Mapping[int, int]) -> dict[str, list[dict[str, int]]]:
-    """The fixed held-out-scene split: every question goes to the part of its scene (:data:`HARD_SPLIT`)."""
-    return {part: _keys(r for r in records if scene_of[int(r["video_index"])] in HARD_SPLIT[part])
+    """The fixed held-out-scene split: every question goes to the part of its scene (:func:`hard_part`)."""
+    return {part: _keys(r for r in records if hard_part(scene_of[int(r["video_index"])]) == part)
             for part in SPLIT_PARTS}
 
 

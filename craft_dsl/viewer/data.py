@@ -224,11 +224,16 @@ class ViewerData:
         reason = self.resimulation_unavailable(video_index)
         if reason is not None:
             raise ViewerError(f"cannot re-simulate video {video_index}: {reason}")
+        from ..dataset.custom_scenes import recorded_layout
         from ..physics import simulate
+        from ..scenes import sample_world
 
         stats = self.folder.instance_stats(video_index) or {}
         config = self.folder.config or {}
-        sim = simulate(int(stats["scene"]), seed=int(stats["simulation_seed"]),
+        seed = int(stats["simulation_seed"])
+        layout = recorded_layout(config, int(stats["scene"]))
+        scene: Any = int(stats["scene"]) if layout is None else sample_world(layout, seed)
+        sim = simulate(scene, seed=seed,
                        steps=int(config.get("steps", DEFAULT_STEPS)), engine=str(config.get("engine", DEFAULT_ENGINE)))
         recorded = self.simulation(video_index)
         if sorted(map(_event_key, sim.events)) != sorted(map(_event_key, recorded.events)):
