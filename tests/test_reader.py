@@ -19,12 +19,12 @@ from craft_dsl.cli import main
 from craft_dsl.errors import ReaderError
 from craft_dsl.physics import simulate
 from craft_dsl.reader.answer import Question, answer_questions, find_videos, format_answer, read_questions
-from craft_dsl.reader.detect import BLACK, PALETTE, WHITE, blobs, grid_labels, lookup
+from craft_dsl.reader.detect import BLACK, PALETTE, WHITE, Blob, blobs, grid_labels, lookup
 from craft_dsl.reader.layout import StaticRenderer, fit_statics, observation
 from craft_dsl.reader.layout_model import LayoutModel, layout_model
 from craft_dsl.reader.measure import measure
 from craft_dsl.reader.perceive import perceive_frames
-from craft_dsl.reader.track import count_per_color
+from craft_dsl.reader.track import TrackedObject, count_per_color, select_objects
 from craft_dsl.render import frames as render_frames
 from craft_dsl.render.raster import static_layer, world_to_pixel
 from craft_dsl.scenes import Uniform, sample_values, sample_world
@@ -132,6 +132,26 @@ def test_blobs_count_the_bodies_of_each_colour(rendered: tuple[object, np.ndarra
         if b.dynamic:
             truth[COLORS.index(b.color)] = truth.get(COLORS.index(b.color), 0) + 1
     assert counts == truth
+
+
+def _track_over(frames: np.ndarray, color: str, x: float, y: float, area: float, seen: int) -> TrackedObject:
+    c = COLORS.index(color)
+    return TrackedObject(c, [Blob(k, c, area, x, y, False) if k < seen else None for k in range(len(frames))])
+
+
+def test_a_small_body_beats_a_larger_piece_of_another_bodys_colour() -> None:
+    """Of three gray tracks, two are kept: the small gray body and the large one; the third, as much evidence as
+    the small body but with a green centre (a ring of compression gray around a green body), goes."""
+    frames = np.full((20, 64, 64, 3), 255, dtype=np.uint8)
+    frames[:, 8:14, 8:14] = PALETTE[COLORS.index("gray")]  # a small gray body
+    frames[:, 40:60, 40:60] = PALETTE[COLORS.index("gray")]  # a large gray body
+    frames[:, 8:14, 40:46] = PALETTE[COLORS.index("green")]  # a green body, ringed by gray
+    small = _track_over(frames, "gray", 11.0, 11.0, 36.0, 20)
+    large = _track_over(frames, "gray", 50.0, 50.0, 400.0, 20)
+    ring = _track_over(frames, "gray", 43.0, 11.0, 40.0, 20)
+    kept = select_objects([ring, small, large], 2, frames)
+    assert kept == [small, large]
+    assert select_objects([ring, small, large], None, frames) == [ring, small, large]
 
 
 def test_perception_finds_the_layout_the_bodies_and_their_motion(rendered: tuple[object, np.ndarray]) -> None:

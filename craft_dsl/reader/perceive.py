@@ -61,7 +61,7 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     times["layout"] = time.perf_counter() - t
     t = time.perf_counter()
     found = blobs(grid_labels(frames, background), grid_rims(background))
-    objects = select_objects(merge_colour_splits(track(found, len(frames))), len(model.layout.dynamic))
+    objects = select_objects(merge_colour_splits(track(found, len(frames))), len(model.layout.dynamic), frames)
     for obj in objects:
         classify_shape(obj, frames, background)
         measure_frames(obj, frames, background, fit_frames(min(START_FRAMES, len(frames))))

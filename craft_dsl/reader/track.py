@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..vocabulary import COLORS, SHAPES, SIZES
-from .detect import GRAY, Blob
+from .detect import GRAY, PALETTE, Blob
 from .measure import Measurement, measure
 from .refine import refine
 
@@ -215,36 +215,57 @@ def merge_colour_splits(objects: list[TrackedObject]) -> list[TrackedObject]:
     return out
 
 
-def attached_fraction(obj: TrackedObject, others: Sequence[TrackedObject], distance: float = 14.0) -> float:
-    """Share of the frames where ``obj`` is seen in which a larger blob of another colour lies within ``distance``
-    pixels: pieces of compression colour (a dark body's rim read as gray) ride along with their body."""
-    seen = obj.seen()
+#: A track whose median blob is at least this large (pixels) is a large body: its centre holds the eyes, so its core
+#: colour says nothing about its purity.
+LARGE_BLOB_AREA = 100.0
+#: A small track is pure when the median colour of its core (3x3 pixels at the blob's centroid) is within this RGB
+#: distance of its palette colour; pieces of compression colour riding along another body (a dark body's rim read as
+#: gray, a ring around it) have the other body's colour, or a blend, at their centre.
+PURE_RADIUS = 35.0
+#: The evidence of a track that is not pure is weighed down by this factor.
+IMPURE_WEIGHT = 0.1
+#: Frames sampled for a track's core colour.
+CORE_SAMPLES = 40
+
+
+def core_colour(obj: TrackedObject, frames: np.ndarray) -> np.ndarray | None:
+    """Median RGB (float [3]) of the 3x3 pixels at the blob's centroid over up to :data:`CORE_SAMPLES` frames where
+    the blob is not cut by the frame's border; None when there is none."""
+    seen = [k for k in obj.seen() if not obj.blobs[k].touches_edge]  # type: ignore[union-attr]
     if not seen:
-        return 1.0
-    attached = 0
-    for k in seen:
+        return None
+    pick = [seen[int(i)] for i in np.unique(np.linspace(0, len(seen) - 1, min(CORE_SAMPLES, len(seen))).round())]
+    size = frames.shape[1]
+    values = []
+    for k in pick:
         b = obj.blobs[k]
         assert b is not None
-        for o in others:
-            if o is obj or o.color == obj.color:
-                continue
-            c = o.blobs[k]
-            if c is not None and c.area > b.area and math.hypot(c.x - b.x, c.y - b.y) < distance + math.sqrt(
-                    c.area / math.pi):
-                attached += 1
-                break
-    return attached / len(seen)
+        x = min(max(int(b.x), 1), size - 2)
+        y = min(max(int(b.y), 1), size - 2)
+        values.append(frames[k, y - 1:y + 2, x - 1:x + 2].reshape(-1, 3).mean(axis=0))
+    return np.median(np.array(values, dtype=np.float64), axis=0)
 
 
-def select_objects(objects: list[TrackedObject], count: int | None) -> list[TrackedObject]:
-    """The ``count`` most substantial bodies (all when None): pieces that ride along another body go first, then
-    the bodies seen least (frames seen times median blob area)."""
+def is_pure(obj: TrackedObject, frames: np.ndarray) -> bool:
+    """Whether ``obj`` looks like a body of its colour rather than a piece of another (see :data:`PURE_RADIUS`)."""
+    areas = [b.area for b in obj.blobs if b is not None]
+    if not areas or float(np.median(areas)) >= LARGE_BLOB_AREA:
+        return True
+    core = core_colour(obj, frames)
+    return core is not None and float(np.linalg.norm(core - PALETTE[obj.color])) < PURE_RADIUS
+
+
+def select_objects(objects: list[TrackedObject], count: int | None, frames: np.ndarray) -> list[TrackedObject]:
+    """The ``count`` most substantial bodies (all when None): by the evidence of each track (frames seen times median
+    blob area), weighed down by :data:`IMPURE_WEIGHT` where the track is not pure (:func:`is_pure`)."""
     if count is None or len(objects) <= count:
         return objects
 
-    def evidence(o: TrackedObject) -> tuple[bool, float]:
+    def evidence(o: TrackedObject) -> float:
         areas = [b.area for b in o.blobs if b is not None]
-        return attached_fraction(o, objects) < 0.6, len(areas) * float(np.median(areas)) if areas else 0.0
+        if not areas:
+            return 0.0
+        return len(areas) * float(np.median(areas)) * (1.0 if is_pure(o, frames) else IMPURE_WEIGHT)
 
     ranked = sorted(objects, key=evidence, reverse=True)
     keep = set(map(id, ranked[:count]))
