@@ -47,6 +47,7 @@ from craft_dsl.perception import SceneModel, export_perceived
 from craft_dsl.physics import simulate
 from craft_dsl.program import to_json
 from craft_dsl.question_parsing import question_to_program
+from craft_dsl.ranges import parse_ranges
 from craft_dsl.reader.answer import Question, answer_questions, find_videos, read_questions
 from craft_dsl.reader.perceive import perceive_video
 from craft_dsl.render.raster import world_to_pixel
@@ -158,6 +159,7 @@ def main() -> None:
     parser.add_argument("--out", help="folder of the generated dataset")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--limit", type=int, help="read only the first N test videos (a quick look)")
+    parser.add_argument("--only", help="read only these video indices, e.g. 437,480-499 (development runs)")
     parser.add_argument("--json", help="write every figure and per-question record here")
     parser.add_argument("--decoders", type=int, default=0,
                         help="only compare the two decoders on this many of the test videos (median of 3 passes)")
@@ -189,6 +191,9 @@ def main() -> None:
     for q in questions:
         by_video[q.video_index].append(q)
     videos = sorted(by_video)[: args.limit] if args.limit else sorted(by_video)
+    if args.only:
+        chosen = set(parse_ranges(args.only, "--only", 0, 10 ** 9, "video indices"))
+        videos = [v for v in videos if v in chosen]
     paths = find_videos(root / "videos", videos)
     if args.decoders:
         compare_decoders([paths[v] for v in videos[: args.decoders]])

@@ -64,8 +64,9 @@ FIT_SAMPLES = 24
 ANCHOR_BACK = 6
 ANCHOR_WINDOW = 36
 #: (frames back, window) of each restart tried in turn: the default, then one further back on a shorter window
-#: (the stray may have begun at a bounce some frames before it shows).
-ANCHOR_TRIES: tuple[tuple[int, int], ...] = ((ANCHOR_BACK, ANCHOR_WINDOW), (16, 24))
+#: (the stray may have begun at a bounce some frames before it shows); where neither brings the run back, restarts
+#: after the stray (negative: frames forward), which give up the frames between and keep the rest of the video.
+ANCHOR_TRIES: tuple[tuple[int, int], ...] = ((ANCHOR_BACK, ANCHOR_WINDOW), (16, 24), (-12, 36), (-36, 36))
 ANCHOR_MOVER_PX = 1.0
 ANCHOR_ITERATIONS = 5
 MAX_ANCHORS = 6
@@ -611,8 +612,14 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
                 continue
             # progress: from the restart on, the run follows the video longer than before (earlier frames are the
             # old run's, whatever outliers they hold)
-            new_worst, new_first = stray(restarted, fit, frames, start=max(1, earliest - back))
-            if new_first and min(new_first.values()) <= earliest:
+            row = max(1, earliest - back)
+            new_worst, new_first = stray(restarted, fit, frames, start=row)
+            if back >= 0:
+                old_at = earliest
+            else:  # a restart after the stray: compared with the old run from the same frame on
+                old_first = stray(sim, fit, frames, start=row)[1]
+                old_at = min(old_first.values()) if old_first else frames
+            if new_first and min(new_first.values()) <= old_at:
                 continue
             sim, worst, first = restarted, new_worst, new_first
             anchors += 1
