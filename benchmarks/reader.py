@@ -104,6 +104,17 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
     ours_world = rec.simulation.world_spec
     our_triples = {(b.shape, b.color, b.size): b.uid for b in ours_world.bodies if b.dynamic}
     attributes_ok = sum(1 for k in true_triples if k in our_triples)
+    # calibration: the probability the perceived scene gives each reading, and whether the reading is right
+    n_slots = len(rec.attributes)
+    by_id = {o.id: o for o in perception.scene.objects}
+    confidence = []
+    for s in rec.slots:
+        if s < 0:
+            continue
+        shape, color, size = rec.attributes[s]
+        o = by_id[n_slots - 1 - s]
+        p = (o.color or {}).get(color, 0.0) * (o.shape or {}).get(shape, 0.0) * (o.size or {}).get(size, 0.0)
+        confidence.append((float(p), (shape, color, size) in true_triples))
     uid_map = {our_triples[k]: true_triples[k] for k in our_triples if k in true_triples}
     # statics: every non-dynamic uid maps to itself when the layout is right (creation order)
     if perception.layout.scene == stats["scene"]:
@@ -145,7 +156,8 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
         records.append({"key": q.key, "answer": a.answer, "truth": truth, "correct": ok, "stage": stage,
                         "template_id": stats["template_ids"][q.key]})
     return {"path": path, "scene": stats["scene"], "found_scene": perception.layout.scene,
-            "objects": len(true_triples), "attributes_ok": attributes_ok, "position_error_px": errors,
+            "objects": len(true_triples), "attributes_ok": attributes_ok, "confidence": confidence,
+            "position_error_px": errors,
             "events_true": len(true_events), "events_ours": len(our_events), "events_matched": matched,
             "timings": {**perception.timings, "perception": perceived_s, "answering": answer_s},
             "anchors": rec.anchors, "questions": records}
@@ -277,6 +289,19 @@ def report(root: Path, results: list[dict[str, Any]], parts: dict[str, set[tuple
         "videos with re-anchored bodies": f"{sum(r['anchors'] > 0 for r in ok)}/{len(ok)}",
     }
     lines += ["### Perception", "", "| metric | value |", "|---|---|"]
+    pairs = [(p, ok_) for r in ok for p, ok_ in r.get("confidence", [])]
+    if pairs:
+        bins = ((0.0, 0.5), (0.5, 0.9), (0.9, 0.99), (0.99, 0.999), (0.999, 1.01))
+        cells, gap = [], 0.0
+        for lo, hi in bins:
+            inside = [(p, c) for p, c in pairs if lo <= p < hi]
+            if inside:
+                mean_p = float(np.mean([p for p, _ in inside]))
+                acc = float(np.mean([c for _, c in inside]))
+                gap += len(inside) * abs(mean_p - acc)
+                cells.append(f"[{lo:g}, {min(hi, 1):g}): {len(inside)} objects, stated {mean_p:.3f}, right {acc:.3f}")
+        perception["calibration of the stated attribute probability (bins)"] = "; ".join(cells)
+        perception["expected calibration error"] = f"{gap / len(pairs):.4f}"
     lines += [f"| {k} | {v} |" for k, v in perception.items()]
     decode = float(np.mean(timings["decode"]))
     lines += ["", "| stage | seconds per video (mean) | ratio to decoding |", "|---|---|---|"]
