@@ -290,6 +290,23 @@ def measure_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarra
             obj.measurements[k] = m
 
 
+def _measured_poses(obj: TrackedObject, which: Sequence[int], shape: str, size: str
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centre x, y and angle of ``obj`` in the measured frames ``which`` as (shape, size): the colour centroid less
+    the eye bias (body frame, y up; pixel rows go down), the angle from the eyes (pi where they are not seen)."""
+    bx, by = EYE_BIAS.get((shape, size), (0.0, 0.0))
+    xs, ys, angles = [], [], []
+    for k in which:
+        m = obj.measurements[k]
+        a = m.eye_angle()
+        a = math.pi if a is None else a
+        c, s = math.cos(a), math.sin(a)
+        xs.append(m.x - (c * bx - s * by))
+        ys.append(m.y + (s * bx + c * by))
+        angles.append(a)
+    return np.array(xs), np.array(ys), np.array(angles)
+
+
 def refine_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, which: Sequence[int],
                   shape: str, size: str) -> None:
     """Exact poses (render and compare, :mod:`craft_dsl.reader.refine`) of ``obj`` in the frames ``which`` where it
@@ -300,19 +317,8 @@ def refine_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarray
     todo = [k for k in which if k not in obj.poses and k in obj.measurements and obj.measurements[k].complete]
     if not todo:
         return
-    bx, by = EYE_BIAS.get((shape, size), (0.0, 0.0))
-    xs, ys, angles = [], [], []
-    for k in todo:
-        m = obj.measurements[k]
-        a = m.eye_angle()
-        a = math.pi if a is None else a
-        c, s = math.cos(a), math.sin(a)
-        # remove the eye bias of the colour centroid (body frame, y up; pixel rows go down)
-        xs.append(m.x - (c * bx - s * by))
-        ys.append(m.y + (s * bx + c * by))
-        angles.append(a)
-    x, y, fitted, rms = refine(frames, background, shape, size, obj.color, todo, np.array(xs), np.array(ys),
-                               np.array(angles))
+    x, y, fitted, rms = refine(frames, background, shape, size, obj.color, todo,
+                               *_measured_poses(obj, todo, shape, size))
     for i, k in enumerate(todo):
         if np.isfinite(rms[i]) and rms[i] < MAX_REFINE_RMS:
             obj.poses[k] = (float(x[i]), float(y[i]), float(fitted[i]))
@@ -326,18 +332,8 @@ def shape_residual(obj: TrackedObject, frames: np.ndarray, background: np.ndarra
     if not done:
         return math.inf
     pick = [done[int(i)] for i in np.unique(np.linspace(0, len(done) - 1, min(samples, len(done))).round())]
-    bx, by = EYE_BIAS.get((shape, size), (0.0, 0.0))
-    xs, ys, angles = [], [], []
-    for k in pick:
-        m = obj.measurements[k]
-        a = m.eye_angle()
-        a = math.pi if a is None else a
-        c, s = math.cos(a), math.sin(a)
-        xs.append(m.x - (c * bx - s * by))
-        ys.append(m.y + (s * bx + c * by))
-        angles.append(a)
-    _x, _y, _a, rms = refine(frames, background, shape, size, obj.color, pick, np.array(xs), np.array(ys),
-                             np.array(angles))
+    _x, _y, _a, rms = refine(frames, background, shape, size, obj.color, pick,
+                             *_measured_poses(obj, pick, shape, size))
     finite = rms[np.isfinite(rms)]
     return float(np.median(finite)) if finite.size else math.inf
 
