@@ -11,7 +11,7 @@ type, and where the problem is.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, NamedTuple
+from typing import Any
 
 from .errors import ProgramError, SideInputError, TypeCheckError, UnknownModuleError
 from .ir import Node, Value, canonical_order
@@ -80,25 +80,16 @@ def arity_error(spec: ModuleSpec, found: int, pos: Where) -> TypeCheckError:
     )
 
 
-class _Resolution(NamedTuple):
-    """How a call with given input types checks: the overload, its output type, inputs to wrap in Unique."""
-
-    overload: int
-    output: DslType
-    wrap: tuple[int, ...]
-
-
-_RESOLUTIONS: dict[tuple[str, tuple[DslType, ...]], _Resolution] = {}
+#: How a call checks, per (module name, *input types): (overload index, output type, inputs to wrap in Unique).
+#: The key is flat (no nested tuple of types) so that building it costs one tuple on the hot path.
+_Resolution = tuple[int, DslType, tuple[int, ...]]
+_RESOLUTIONS: dict[tuple[Any, ...], _Resolution] = {}
 #: ``Node`` built from a field tuple without the NamedTuple constructor's Python-level wrapper (hot path).
 _new_node = tuple.__new__
 
 
 def _resolve_overload(spec: ModuleSpec, types: tuple[DslType, ...]) -> _Resolution | None:
     """Exact matches first, then matches that need Unique around an object set (cached per input types)."""
-    key = (spec.name, types)
-    found = _RESOLUTIONS.get(key)
-    if found is not None:
-        return found
     for allow_unique in (False, True):
         for k, ov in enumerate(spec.overloads):
             wrap = []
@@ -110,8 +101,8 @@ def _resolve_overload(spec: ModuleSpec, types: tuple[DslType, ...]) -> _Resoluti
                     continue
                 break
             else:
-                found = _Resolution(k, ov.output, tuple(wrap))
-                _RESOLUTIONS[key] = found
+                found = (k, ov.output, tuple(wrap))
+                _RESOLUTIONS[(spec.name, *types)] = found
                 return found
     return None
 
@@ -160,30 +151,41 @@ class ProgramBuilder:
         nodes = self.nodes
         n = len(inputs)
         if n == 1:
-            types: tuple[DslType, ...] = (nodes[inputs[0]][3],)
+            res = _RESOLUTIONS.get((spec.name, nodes[inputs[0]][3]))
         elif n == 2:
-            types = (nodes[inputs[0]][3], nodes[inputs[1]][3])
+            res = _RESOLUTIONS.get((spec.name, nodes[inputs[0]][3], nodes[inputs[1]][3]))
         else:
-            types = tuple([nodes[i][3] for i in inputs])
-        res = _RESOLUTIONS.get((spec.name, types)) or _resolve_overload(spec, types)
+            res = _RESOLUTIONS.get((spec.name, *[nodes[i][3] for i in inputs]))
         if res is None:
-            raise self._overload_error(spec, types, pos, input_pos)
-        if res.wrap:
+            types = tuple([nodes[i][3] for i in inputs])
+            res = _resolve_overload(spec, types)
+            if res is None:
+                raise self._overload_error(spec, types, pos, input_pos)
+        overload, output, wrap = res
+        if wrap:
             ids = list(inputs)
-            for k in res.wrap:
+            for k in wrap:
                 ids[k] = self._add(Node("Unique", (ids[k],), (), _OBJECT))
             inputs = ids
         values: tuple[Value, ...] = ()
         if sides:
-            checked: list[Value] = []
-            for k, (value, expected) in enumerate(zip(sides, spec.side_inputs)):
-                found = _VALUES[expected].get(value) if isinstance(value, str) else None
+            if len(sides) == 1:
+                value = sides[0]
+                expected = spec.side_inputs[0]
+                found = _VALUES[expected].get(value) if type(value) is str else None
                 if found is None:
-                    found = self._side_value(spec, len(inputs) + k + 1, value, expected,
-                                             side_pos[k] if k < len(side_pos) else pos)
-                checked.append(found)
-            values = tuple(checked)
-        node = _new_node(Node, (spec.name, tuple(inputs), values, res.output, res.overload))
+                    found = self._side_value(spec, n + 1, value, expected, side_pos[0] if side_pos else pos)
+                values = (found,)
+            else:
+                checked: list[Value] = []
+                for k, (value, expected) in enumerate(zip(sides, spec.side_inputs)):
+                    found = _VALUES[expected].get(value) if type(value) is str else None
+                    if found is None:
+                        found = self._side_value(spec, n + k + 1, value, expected,
+                                                 side_pos[k] if k < len(side_pos) else pos)
+                    checked.append(found)
+                values = tuple(checked)
+        node = _new_node(Node, (spec.name, tuple(inputs), values, output, overload))
         found_id = self._index.get(node)
         if found_id is None:
             found_id = self._index[node] = len(nodes)
