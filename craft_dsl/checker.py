@@ -102,7 +102,8 @@ def _resolve_overload(spec: ModuleSpec, types: tuple[DslType, ...]) -> _Resoluti
                 break
             else:
                 found = (k, ov.output, tuple(wrap))
-                _RESOLUTIONS[(spec.name, *types)] = found
+                key = (spec.name, *types)
+                _RESOLUTIONS[key] = found
                 return found
     return None
 

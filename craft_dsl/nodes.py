@@ -91,10 +91,12 @@ def check_nodes(nodes: Sequence[Mapping[str, Any]], params: Mapping[str, str] | 
 
 def _plain_values(sides: list[Any]) -> bool:
     """Whether every side input is a string that is not a placeholder (what needs no further reading)."""
-    for v in sides:
+    for v in sides:  # a loop, not all(<generator>): this runs for every node with side inputs
         if type(v) is not str or v[:1] == "<":
-            return False
-    return True
+            break
+    else:
+        return True
+    return False
 
 
 def _inverse(order: tuple[int, ...]) -> tuple[int, ...]:
