@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from .errors import ProgramError, SideInputError, TypeCheckError, UnknownModuleError
-from .ir import Node, Value, canonical_order
+from .ir import Node, RawNode, Value, canonical_order
 from .registry import UNSUPPORTED_ORIGINAL, ModuleSpec, lookup, suggest
 from .syntax import Binding, Call, Expr, Literal, Position, Ref, Tree
 from .types import SIDE_INPUT_TYPES, DslType
@@ -84,8 +84,6 @@ def arity_error(spec: ModuleSpec, found: int, pos: Where) -> TypeCheckError:
 #: The key is flat (no nested tuple of types) so that building it costs one tuple on the hot path.
 _Resolution = tuple[int, DslType, tuple[int, ...]]
 _RESOLUTIONS: dict[tuple[Any, ...], _Resolution] = {}
-#: ``Node`` built from a field tuple without the NamedTuple constructor's Python-level wrapper (hot path).
-_new_node = tuple.__new__
 
 
 def _resolve_overload(spec: ModuleSpec, types: tuple[DslType, ...]) -> _Resolution | None:
@@ -109,13 +107,14 @@ def _resolve_overload(spec: ModuleSpec, types: tuple[DslType, ...]) -> _Resoluti
 
 
 class ProgramBuilder:
-    """Checks calls one at a time and hash-conses them into :class:`~craft_dsl.ir.Node` values."""
+    """Checks calls one at a time and hash-conses them into raw nodes (plain tuples of :class:`~craft_dsl.ir.Node`'s
+    fields)."""
 
     def __init__(self) -> None:
-        self.nodes: list[Node] = []
-        self._index: dict[Node, int] = {}
+        self.nodes: list[RawNode] = []
+        self._index: dict[RawNode, int] = {}
 
-    def _add(self, node: Node) -> int:
+    def _add(self, node: RawNode) -> int:
         found = self._index.get(node)
         if found is None:
             found = self._index[node] = len(self.nodes)
@@ -124,7 +123,7 @@ class ProgramBuilder:
 
     def literal(self, value: Value, typ: DslType) -> int:
         """A literal node (an integer, or a canonical colour/shape/size)."""
-        return self._add(Node(None, (), (value,), typ))
+        return self._add((None, (), (value,), typ, 0))
 
     def input_literal(self, spec: ModuleSpec, index: int, value: Value, pos: Where) -> int:
         """A literal written in an input position: an integer, or a quoted value where a Color/Shape/Size is
@@ -166,7 +165,7 @@ class ProgramBuilder:
         if wrap:
             ids = list(inputs)
             for k in wrap:
-                ids[k] = self._add(Node("Unique", (ids[k],), (), _OBJECT))
+                ids[k] = self._add(("Unique", (ids[k],), (), _OBJECT, 0))
             inputs = ids
         values: tuple[Value, ...] = ()
         if sides:
@@ -186,7 +185,7 @@ class ProgramBuilder:
                                                  side_pos[k] if k < len(side_pos) else pos)
                     checked.append(found)
                 values = tuple(checked)
-        node = _new_node(Node, (spec.name, tuple(inputs), values, output, overload))
+        node: RawNode = (spec.name, tuple(inputs), values, output, overload)
         found_id = self._index.get(node)
         if found_id is None:
             found_id = self._index[node] = len(nodes)
@@ -238,7 +237,7 @@ class CheckedProgram:
 
     __slots__ = ("raw", "root", "tree", "binding_types", "raw_sources", "_canonical")
 
-    def __init__(self, raw: Sequence[Node], root: int, tree: Tree | None, binding_types: dict[str, DslType],
+    def __init__(self, raw: Sequence[RawNode], root: int, tree: Tree | None, binding_types: dict[str, DslType],
                  raw_sources: tuple[int, ...]) -> None:
         self.raw = raw
         self.root = root
@@ -254,7 +253,7 @@ class CheckedProgram:
 
     @property
     def type(self) -> DslType:
-        return self.raw[self.root].type
+        return self.raw[self.root][3]
 
     @property
     def nodes(self) -> tuple[Node, ...]:
@@ -301,10 +300,10 @@ def check_tree(tree: Tree) -> CheckedProgram:
         if b.name in env:
             raise ProgramError(f"Var {b.name} is bound twice; use another name", **where(b.pos))
         nid, expr = _check_expr(builder, b.expr, env, sources)
-        env[b.name] = (nid, builder.nodes[nid].type)
+        env[b.name] = (nid, builder.nodes[nid][3])
         bindings.append(Binding(b.name, expr, b.pos))
     root, body = _check_expr(builder, tree.body, env, sources)
-    if builder.nodes[root].module is None:
+    if builder.nodes[root][0] is None:
         raise ProgramError("a program must call a module; a lone value is not a program (in every form)",
                            **where(getattr(tree.body, "pos", None)))
     return builder.finish(root, sources, Tree(tuple(bindings), body), {k: t for k, (_, t) in env.items()})
@@ -352,7 +351,7 @@ def _check_expr(builder: ProgramBuilder, expr: Expr, env: dict[str, tuple[int, D
                 nid, checked = _ref(env, arg), arg
             else:
                 nid = builder.input_literal(frame.spec, frame.next, arg.value, arg.pos)
-                lit = builder.nodes[nid].values[0]
+                lit = builder.nodes[nid][2][0]
                 checked = arg if lit == arg.value else Literal(lit, arg.pos)
             frame.ids.append(nid)
             frame.exprs.append(checked)
@@ -373,12 +372,12 @@ def _check_expr(builder: ProgramBuilder, expr: Expr, env: dict[str, tuple[int, D
             spec, frame.ids, [a.value for a in side_args if isinstance(a, Literal)], call.pos,
             [a.pos for a in call.args[:frame.n_inputs]], [a.pos or call.pos for a in side_args],
         )
-        node = builder.nodes[nid]
+        _module, node_inputs, node_values = builder.nodes[nid][:3]
         args = [
-            expr_k if node.inputs[k] == frame.ids[k] else Call("Unique", (expr_k,), expr_k.pos)
+            expr_k if node_inputs[k] == frame.ids[k] else Call("Unique", (expr_k,), expr_k.pos)
             for k, expr_k in enumerate(frame.exprs)
         ]
-        args += [Literal(v, a.pos) for v, a in zip(node.values, side_args)]
+        args += [Literal(v, a.pos) for v, a in zip(node_values, side_args)]
         checked_call = Call(spec.name, tuple(args), call.pos)
         sources[frame.source] = nid
         stack.pop()

@@ -14,7 +14,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from .ir import Node
+from .ir import RawNode
 from .registry import IMPLS, MAY_INVALIDATE, REGISTRY, Impl
 from .simulation import Simulation
 from .types import INVALID, DslType
@@ -67,10 +67,10 @@ class Plan:
 
     __slots__ = ("nodes", "root", "constants", "order", "steps", "result_type", "runs", "_fast")
 
-    def __init__(self, nodes: Sequence[Node], root: int | None = None) -> None:
+    def __init__(self, nodes: Sequence[RawNode], root: int | None = None) -> None:
         self.nodes = nodes
         self.root = len(nodes) - 1 if root is None else root
-        self.result_type = nodes[self.root].type
+        self.result_type = nodes[self.root][3]
         self.runs = 0
         self.steps: tuple[tuple[Thunk, int, tuple[int, ...]], ...] | None = None
         self._fast: Callable[[Simulation], Any] | None = None
@@ -99,15 +99,15 @@ class Plan:
         for i, is_needed in enumerate(needed):
             if not is_needed:
                 continue
-            node = nodes[i]
-            if node.module is None:
-                constants[i] = node.values[0]
+            module, inputs, values = nodes[i][:3]
+            if module is None:
+                constants[i] = values[0]
                 continue
             check: tuple[int, ...] = ()
-            for j in node.inputs:
+            for j in inputs:
                 if may_invalid[j]:
                     check += (j,)
-            may_invalid[i] = bool(check) or node.module in MAY_INVALIDATE
+            may_invalid[i] = bool(check) or module in MAY_INVALIDATE
             order.append((i, check))
         self.constants = constants
         self.order = order
@@ -126,7 +126,7 @@ class Plan:
             nodes = self.nodes
             order = self.order if self.order is not None else self._prepare()
             steps = self.steps = tuple([
-                (_thunk(IMPLS[nodes[i].module], nodes[i].inputs, nodes[i].values), i, check)  # type: ignore[index]
+                (_thunk(IMPLS[nodes[i][0]], nodes[i][1], nodes[i][2]), i, check)  # type: ignore[index]
                 for i, check in order])
         slots = self.constants[:]
         for fn, out, check in steps:
@@ -177,12 +177,12 @@ class Plan:
         lines = ["def run(sim):"]
         order = self.order if self.order is not None else self._prepare()
         for i, check in order:
-            node = self.nodes[i]
-            spec = REGISTRY[node.module]  # type: ignore[index]
+            module, inputs, values = self.nodes[i][:3]
+            spec = REGISTRY[module]  # type: ignore[index]
             names[f"f{i}"] = spec.impl
-            args = ["sim", *(f"c{j}" if self.nodes[j].module is None else f"s{j}" for j in node.inputs)]
-            names.update({f"c{j}": self.nodes[j].values[0] for j in node.inputs if self.nodes[j].module is None})
-            for k, value in enumerate(node.values):
+            args = ["sim", *(f"c{j}" if self.nodes[j][0] is None else f"s{j}" for j in inputs)]
+            names.update({f"c{j}": self.nodes[j][2][0] for j in inputs if self.nodes[j][0] is None})
+            for k, value in enumerate(values):
                 names[f"v{i}_{k}"] = value
                 args.append(f"v{i}_{k}")
             call = f"f{i}({', '.join(args)})"
@@ -191,7 +191,7 @@ class Plan:
                 lines.append(f"    s{i} = INVALID if {invalid} else {call}")
             else:
                 lines.append(f"    s{i} = {call}")
-        lines.append(f"    return s{self.root}" if self.nodes[self.root].module else f"    return c{self.root}")
+        lines.append(f"    return s{self.root}" if self.nodes[self.root][0] else f"    return c{self.root}")
         names[f"c{self.root}"] = self.constants[self.root]
         namespace: dict[str, Any] = {}
         exec(compile("\n".join(lines), "<craft_dsl plan>", "exec"), names, namespace)
