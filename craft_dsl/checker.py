@@ -149,13 +149,16 @@ class ProgramBuilder:
         The caller has checked the number of inputs and side inputs.
         """
         nodes = self.nodes
+        name = spec.name
         n = len(inputs)
         if n == 1:
-            res = _RESOLUTIONS.get((spec.name, nodes[inputs[0]][3]))
+            res = _RESOLUTIONS.get((name, nodes[inputs[0]][3]))
         elif n == 2:
-            res = _RESOLUTIONS.get((spec.name, nodes[inputs[0]][3], nodes[inputs[1]][3]))
+            res = _RESOLUTIONS.get((name, nodes[inputs[0]][3], nodes[inputs[1]][3]))
+        elif n == 0:
+            res = _RESOLUTIONS.get((name,))
         else:
-            res = _RESOLUTIONS.get((spec.name, *[nodes[i][3] for i in inputs]))
+            res = _RESOLUTIONS.get((name, *[nodes[i][3] for i in inputs]))
         if res is None:
             types = tuple([nodes[i][3] for i in inputs])
             res = _resolve_overload(spec, types)
@@ -185,7 +188,7 @@ class ProgramBuilder:
                                                  side_pos[k] if k < len(side_pos) else pos)
                     checked.append(found)
                 values = tuple(checked)
-        node: RawNode = (spec.name, tuple(inputs), values, output, overload)
+        node: RawNode = (name, tuple(inputs), values, output, overload)
         found_id = self._index.get(node)
         if found_id is None:
             found_id = self._index[node] = len(nodes)

@@ -152,7 +152,7 @@ class Plan:
         for i, is_needed in enumerate(needed):
             if not is_needed:
                 continue
-            module, inputs, values = nodes[i][:3]
+            module, inputs, values, _type, _overload = nodes[i]
             if module is None:
                 slots[i] = values[0]
             elif not inputs:
@@ -160,6 +160,9 @@ class Plan:
             elif len(inputs) == 1:
                 a = slots[inputs[0]]
                 slots[i] = invalid if a is invalid else IMPLS[module](sim, a, *values)
+            elif len(inputs) == 2:
+                a, b = slots[inputs[0]], slots[inputs[1]]
+                slots[i] = invalid if a is invalid or b is invalid else IMPLS[module](sim, a, b, *values)
             else:
                 args = [slots[j] for j in inputs]
                 for a in args:
