@@ -63,17 +63,24 @@ def check_nodes(nodes: Sequence[Mapping[str, Any]], params: Mapping[str, str] | 
         if shape is None:
             _unknown_module(name, k)
         spec, n_inputs, reorder, n_sides = shape
-        args = []
-        try:
-            for i in inputs:
-                if type(i) is not int or not 0 <= i < k:
-                    _bad_inputs(name, inputs, k)
-                args.append(built[i])
-        except TypeError:
-            _bad_inputs(name, inputs, k)
-        if len(args) != n_inputs:
-            raise NodeListError(f"{name}: {spec.name} takes {n_inputs} input node(s), found {len(args)}",
-                                location=f"node {k}", index=k)
+        # The common shapes first (one valid input, or none); everything else, errors included, below.
+        if n_inputs == 1 and type(inputs) is list and len(inputs) == 1 and type(i := inputs[0]) is int \
+                and 0 <= i < k:
+            args = [built[i]]
+        elif n_inputs == 0 and type(inputs) is list and not inputs:
+            args = []
+        else:
+            args = []
+            try:
+                for i in inputs:
+                    if type(i) is not int or not 0 <= i < k:
+                        _bad_inputs(name, inputs, k)
+                    args.append(built[i])
+            except TypeError:
+                _bad_inputs(name, inputs, k)
+            if len(args) != n_inputs:
+                raise NodeListError(f"{name}: {spec.name} takes {n_inputs} input node(s), found {len(args)}",
+                                    location=f"node {k}", index=k)
         if reorder is not None:
             args = [args[j] for j in reorder]
         if n_sides or len(node) > 2:
