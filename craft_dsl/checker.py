@@ -11,10 +11,10 @@ type, and where the problem is.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, NamedTuple
+from typing import Any
 
 from .errors import ProgramError, SideInputError, TypeCheckError, UnknownModuleError
-from .ir import Node, Value, canonical_order
+from .ir import Node, RawNode, Value, canonical_order
 from .registry import UNSUPPORTED_ORIGINAL, ModuleSpec, lookup, suggest
 from .syntax import Binding, Call, Expr, Literal, Position, Ref, Tree
 from .types import SIDE_INPUT_TYPES, DslType
@@ -80,25 +80,14 @@ def arity_error(spec: ModuleSpec, found: int, pos: Where) -> TypeCheckError:
     )
 
 
-class _Resolution(NamedTuple):
-    """How a call with given input types checks: the overload, its output type, inputs to wrap in Unique."""
-
-    overload: int
-    output: DslType
-    wrap: tuple[int, ...]
-
-
-_RESOLUTIONS: dict[tuple[str, tuple[DslType, ...]], _Resolution] = {}
-#: ``Node`` built from a field tuple without the NamedTuple constructor's Python-level wrapper (hot path).
-_new_node = tuple.__new__
+#: How a call checks, per (module name, *input types): (overload index, output type, inputs to wrap in Unique).
+#: The key is flat (no nested tuple of types) so that building it costs one tuple on the hot path.
+_Resolution = tuple[int, DslType, tuple[int, ...]]
+_RESOLUTIONS: dict[tuple[Any, ...], _Resolution] = {}
 
 
 def _resolve_overload(spec: ModuleSpec, types: tuple[DslType, ...]) -> _Resolution | None:
     """Exact matches first, then matches that need Unique around an object set (cached per input types)."""
-    key = (spec.name, types)
-    found = _RESOLUTIONS.get(key)
-    if found is not None:
-        return found
     for allow_unique in (False, True):
         for k, ov in enumerate(spec.overloads):
             wrap = []
@@ -110,20 +99,22 @@ def _resolve_overload(spec: ModuleSpec, types: tuple[DslType, ...]) -> _Resoluti
                     continue
                 break
             else:
-                found = _Resolution(k, ov.output, tuple(wrap))
+                found = (k, ov.output, tuple(wrap))
+                key = (spec.name, *types)
                 _RESOLUTIONS[key] = found
                 return found
     return None
 
 
 class ProgramBuilder:
-    """Checks calls one at a time and hash-conses them into :class:`~craft_dsl.ir.Node` values."""
+    """Checks calls one at a time and hash-conses them into raw nodes (plain tuples of :class:`~craft_dsl.ir.Node`'s
+    fields)."""
 
     def __init__(self) -> None:
-        self.nodes: list[Node] = []
-        self._index: dict[Node, int] = {}
+        self.nodes: list[RawNode] = []
+        self._index: dict[RawNode, int] = {}
 
-    def _add(self, node: Node) -> int:
+    def _add(self, node: RawNode) -> int:
         found = self._index.get(node)
         if found is None:
             found = self._index[node] = len(self.nodes)
@@ -132,7 +123,7 @@ class ProgramBuilder:
 
     def literal(self, value: Value, typ: DslType) -> int:
         """A literal node (an integer, or a canonical colour/shape/size)."""
-        return self._add(Node(None, (), (value,), typ))
+        return self._add((None, (), (value,), typ, 0))
 
     def input_literal(self, spec: ModuleSpec, index: int, value: Value, pos: Where) -> int:
         """A literal written in an input position: an integer, or a quoted value where a Color/Shape/Size is
@@ -158,32 +149,46 @@ class ProgramBuilder:
         The caller has checked the number of inputs and side inputs.
         """
         nodes = self.nodes
+        name = spec.name
         n = len(inputs)
         if n == 1:
-            types: tuple[DslType, ...] = (nodes[inputs[0]][3],)
+            res = _RESOLUTIONS.get((name, nodes[inputs[0]][3]))
         elif n == 2:
-            types = (nodes[inputs[0]][3], nodes[inputs[1]][3])
+            res = _RESOLUTIONS.get((name, nodes[inputs[0]][3], nodes[inputs[1]][3]))
+        elif n == 0:
+            res = _RESOLUTIONS.get((name,))
         else:
-            types = tuple([nodes[i][3] for i in inputs])
-        res = _RESOLUTIONS.get((spec.name, types)) or _resolve_overload(spec, types)
+            res = _RESOLUTIONS.get((name, *[nodes[i][3] for i in inputs]))
         if res is None:
-            raise self._overload_error(spec, types, pos, input_pos)
-        if res.wrap:
+            types = tuple([nodes[i][3] for i in inputs])
+            res = _resolve_overload(spec, types)
+            if res is None:
+                raise self._overload_error(spec, types, pos, input_pos)
+        overload, output, wrap = res
+        if wrap:
             ids = list(inputs)
-            for k in res.wrap:
-                ids[k] = self._add(Node("Unique", (ids[k],), (), _OBJECT))
+            for k in wrap:
+                ids[k] = self._add(("Unique", (ids[k],), (), _OBJECT, 0))
             inputs = ids
         values: tuple[Value, ...] = ()
         if sides:
-            checked: list[Value] = []
-            for k, (value, expected) in enumerate(zip(sides, spec.side_inputs)):
-                found = _VALUES[expected].get(value) if isinstance(value, str) else None
+            if len(sides) == 1:
+                value = sides[0]
+                expected = spec.side_inputs[0]
+                found = _VALUES[expected].get(value) if type(value) is str else None
                 if found is None:
-                    found = self._side_value(spec, len(inputs) + k + 1, value, expected,
-                                             side_pos[k] if k < len(side_pos) else pos)
-                checked.append(found)
-            values = tuple(checked)
-        node = _new_node(Node, (spec.name, tuple(inputs), values, res.output, res.overload))
+                    found = self._side_value(spec, n + 1, value, expected, side_pos[0] if side_pos else pos)
+                values = (found,)
+            else:
+                checked: list[Value] = []
+                for k, (value, expected) in enumerate(zip(sides, spec.side_inputs)):
+                    found = _VALUES[expected].get(value) if type(value) is str else None
+                    if found is None:
+                        found = self._side_value(spec, n + k + 1, value, expected,
+                                                 side_pos[k] if k < len(side_pos) else pos)
+                    checked.append(found)
+                values = tuple(checked)
+        node: RawNode = (name, tuple(inputs), values, output, overload)
         found_id = self._index.get(node)
         if found_id is None:
             found_id = self._index[node] = len(nodes)
@@ -235,7 +240,7 @@ class CheckedProgram:
 
     __slots__ = ("raw", "root", "tree", "binding_types", "raw_sources", "_canonical")
 
-    def __init__(self, raw: Sequence[Node], root: int, tree: Tree | None, binding_types: dict[str, DslType],
+    def __init__(self, raw: Sequence[RawNode], root: int, tree: Tree | None, binding_types: dict[str, DslType],
                  raw_sources: tuple[int, ...]) -> None:
         self.raw = raw
         self.root = root
@@ -251,7 +256,7 @@ class CheckedProgram:
 
     @property
     def type(self) -> DslType:
-        return self.raw[self.root].type
+        return self.raw[self.root][3]
 
     @property
     def nodes(self) -> tuple[Node, ...]:
@@ -298,10 +303,10 @@ def check_tree(tree: Tree) -> CheckedProgram:
         if b.name in env:
             raise ProgramError(f"Var {b.name} is bound twice; use another name", **where(b.pos))
         nid, expr = _check_expr(builder, b.expr, env, sources)
-        env[b.name] = (nid, builder.nodes[nid].type)
+        env[b.name] = (nid, builder.nodes[nid][3])
         bindings.append(Binding(b.name, expr, b.pos))
     root, body = _check_expr(builder, tree.body, env, sources)
-    if builder.nodes[root].module is None:
+    if builder.nodes[root][0] is None:
         raise ProgramError("a program must call a module; a lone value is not a program (in every form)",
                            **where(getattr(tree.body, "pos", None)))
     return builder.finish(root, sources, Tree(tuple(bindings), body), {k: t for k, (_, t) in env.items()})
@@ -349,7 +354,7 @@ def _check_expr(builder: ProgramBuilder, expr: Expr, env: dict[str, tuple[int, D
                 nid, checked = _ref(env, arg), arg
             else:
                 nid = builder.input_literal(frame.spec, frame.next, arg.value, arg.pos)
-                lit = builder.nodes[nid].values[0]
+                lit = builder.nodes[nid][2][0]
                 checked = arg if lit == arg.value else Literal(lit, arg.pos)
             frame.ids.append(nid)
             frame.exprs.append(checked)
@@ -370,12 +375,12 @@ def _check_expr(builder: ProgramBuilder, expr: Expr, env: dict[str, tuple[int, D
             spec, frame.ids, [a.value for a in side_args if isinstance(a, Literal)], call.pos,
             [a.pos for a in call.args[:frame.n_inputs]], [a.pos or call.pos for a in side_args],
         )
-        node = builder.nodes[nid]
+        _module, node_inputs, node_values = builder.nodes[nid][:3]
         args = [
-            expr_k if node.inputs[k] == frame.ids[k] else Call("Unique", (expr_k,), expr_k.pos)
+            expr_k if node_inputs[k] == frame.ids[k] else Call("Unique", (expr_k,), expr_k.pos)
             for k, expr_k in enumerate(frame.exprs)
         ]
-        args += [Literal(v, a.pos) for v, a in zip(node.values, side_args)]
+        args += [Literal(v, a.pos) for v, a in zip(node_values, side_args)]
         checked_call = Call(spec.name, tuple(args), call.pos)
         sources[frame.source] = nid
         stack.pop()

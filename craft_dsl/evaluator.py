@@ -14,7 +14,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from .ir import Node
+from .ir import RawNode
 from .registry import IMPLS, MAY_INVALIDATE, REGISTRY, Impl
 from .simulation import Simulation
 from .types import INVALID, DslType
@@ -67,38 +67,51 @@ class Plan:
 
     __slots__ = ("nodes", "root", "constants", "order", "steps", "result_type", "runs", "_fast")
 
-    def __init__(self, nodes: Sequence[Node], root: int | None = None) -> None:
-        root = len(nodes) - 1 if root is None else root
+    def __init__(self, nodes: Sequence[RawNode], root: int | None = None) -> None:
         self.nodes = nodes
-        self.root = root
-        needed = [False] * len(nodes)
+        self.root = len(nodes) - 1 if root is None else root
+        self.result_type = nodes[self.root][3]
+        self.runs = 0
+        self.steps: tuple[tuple[Thunk, int, tuple[int, ...]], ...] | None = None
+        self._fast: Callable[[Simulation], Any] | None = None
+        # Built on the second run (a program scored once never needs them): the constant slots, and the
+        # needed module nodes in order, each with the inputs to test for INVALID.
+        self.constants: list[Any] = []
+        self.order: list[tuple[int, tuple[int, ...]]] | None = None
+
+    def _needed(self) -> list[bool]:
+        """Which nodes the answer depends on (the root and, transitively, its inputs)."""
+        nodes, root = self.nodes, self.root
+        needed = [False] * (root + 1)
         needed[root] = True
         for i in range(root, -1, -1):
             if needed[i]:
-                for j in nodes[i].inputs:
+                for j in nodes[i][1]:
                     needed[j] = True
+        return needed
+
+    def _prepare(self) -> list[tuple[int, tuple[int, ...]]]:
+        nodes = self.nodes
+        needed = self._needed()
         constants: list[Any] = [None] * len(nodes)
         order: list[tuple[int, tuple[int, ...]]] = []
         may_invalid = [False] * len(nodes)
-        for i in range(root + 1):
-            if not needed[i]:
+        for i, is_needed in enumerate(needed):
+            if not is_needed:
                 continue
-            node = nodes[i]
-            if node.module is None:
-                constants[i] = node.values[0]
+            module, inputs, values = nodes[i][:3]
+            if module is None:
+                constants[i] = values[0]
                 continue
             check: tuple[int, ...] = ()
-            for j in node.inputs:
+            for j in inputs:
                 if may_invalid[j]:
                     check += (j,)
-            may_invalid[i] = bool(check) or node.module in MAY_INVALIDATE
+            may_invalid[i] = bool(check) or module in MAY_INVALIDATE
             order.append((i, check))
         self.constants = constants
         self.order = order
-        self.steps: tuple[tuple[Thunk, int, tuple[int, ...]], ...] | None = None
-        self.result_type = nodes[root].type
-        self.runs = 0
-        self._fast: Callable[[Simulation], Any] | None = None
+        return order
 
     def run(self, sim: Simulation) -> Any:
         if self._fast is not None:
@@ -111,9 +124,10 @@ class Plan:
         steps = self.steps
         if steps is None:
             nodes = self.nodes
+            order = self.order if self.order is not None else self._prepare()
             steps = self.steps = tuple([
-                (_thunk(IMPLS[nodes[i].module], nodes[i].inputs, nodes[i].values), i, check)  # type: ignore[index]
-                for i, check in self.order])
+                (_thunk(IMPLS[nodes[i][0]], nodes[i][1], nodes[i][2]), i, check)  # type: ignore[index]
+                for i, check in order])
         slots = self.constants[:]
         for fn, out, check in steps:
             if check:
@@ -128,28 +142,35 @@ class Plan:
         return slots[self.root]
 
     def _interpret(self, sim: Simulation) -> Any:
-        """One run without building instructions (the cheapest way to run a program once)."""
-        slots = self.constants[:]
+        """One run straight from the nodes, without building instructions or constant slots (the cheapest way
+        to run a program once). Every input is tested for INVALID, which gives the same answers as testing only
+        the inputs that can be INVALID."""
         nodes = self.nodes
-        for out, check in self.order:
-            if check:
-                for i in check:
-                    if slots[i] is INVALID:
+        needed = self._needed()
+        slots: list[Any] = [None] * len(needed)
+        invalid = INVALID
+        for i, is_needed in enumerate(needed):
+            if not is_needed:
+                continue
+            module, inputs, values, _type, _overload = nodes[i]
+            if module is None:
+                slots[i] = values[0]
+            elif not inputs:
+                slots[i] = IMPLS[module](sim, *values)
+            elif len(inputs) == 1:
+                a = slots[inputs[0]]
+                slots[i] = invalid if a is invalid else IMPLS[module](sim, a, *values)
+            elif len(inputs) == 2:
+                a, b = slots[inputs[0]], slots[inputs[1]]
+                slots[i] = invalid if a is invalid or b is invalid else IMPLS[module](sim, a, b, *values)
+            else:
+                args = [slots[j] for j in inputs]
+                for a in args:
+                    if a is invalid:
+                        slots[i] = invalid
                         break
                 else:
-                    check = ()
-                if check:
-                    slots[out] = INVALID
-                    continue
-            node = nodes[out]
-            impl = IMPLS[node[0]]  # type: ignore[index]
-            inputs = node[1]
-            if not inputs:
-                slots[out] = impl(sim, *node[2])
-            elif len(inputs) == 1:
-                slots[out] = impl(sim, slots[inputs[0]], *node[2])
-            else:
-                slots[out] = impl(sim, *[slots[i] for i in inputs], *node[2])
+                    slots[i] = IMPLS[module](sim, *args, *values)
         return slots[self.root]
 
     def compile(self) -> Callable[[Simulation], Any]:
@@ -157,13 +178,14 @@ class Plan:
         runs of the plan, so :meth:`run` switches to it only for programs run often."""
         names: dict[str, Any] = {"INVALID": INVALID}
         lines = ["def run(sim):"]
-        for i, check in self.order:
-            node = self.nodes[i]
-            spec = REGISTRY[node.module]  # type: ignore[index]
+        order = self.order if self.order is not None else self._prepare()
+        for i, check in order:
+            module, inputs, values = self.nodes[i][:3]
+            spec = REGISTRY[module]  # type: ignore[index]
             names[f"f{i}"] = spec.impl
-            args = ["sim", *(f"c{j}" if self.nodes[j].module is None else f"s{j}" for j in node.inputs)]
-            names.update({f"c{j}": self.nodes[j].values[0] for j in node.inputs if self.nodes[j].module is None})
-            for k, value in enumerate(node.values):
+            args = ["sim", *(f"c{j}" if self.nodes[j][0] is None else f"s{j}" for j in inputs)]
+            names.update({f"c{j}": self.nodes[j][2][0] for j in inputs if self.nodes[j][0] is None})
+            for k, value in enumerate(values):
                 names[f"v{i}_{k}"] = value
                 args.append(f"v{i}_{k}")
             call = f"f{i}({', '.join(args)})"
@@ -172,7 +194,7 @@ class Plan:
                 lines.append(f"    s{i} = INVALID if {invalid} else {call}")
             else:
                 lines.append(f"    s{i} = {call}")
-        lines.append(f"    return s{self.root}" if self.nodes[self.root].module else f"    return c{self.root}")
+        lines.append(f"    return s{self.root}" if self.nodes[self.root][0] else f"    return c{self.root}")
         names[f"c{self.root}"] = self.constants[self.root]
         namespace: dict[str, Any] = {}
         exec(compile("\n".join(lines), "<craft_dsl plan>", "exec"), names, namespace)
@@ -182,8 +204,9 @@ class Plan:
     def values(self, sim: Simulation) -> list[Any]:
         """The value of every node (None for nodes the answer does not need), in node order; nodes with an
         INVALID input are INVALID."""
+        order = self.order if self.order is not None else self._prepare()
         slots = self.constants[:]
-        for out, _check in self.order:
+        for out, _check in order:
             module, inputs, values = self.nodes[out][:3]
             slots[out] = INVALID if any(slots[i] is INVALID for i in inputs) else \
                 IMPLS[module](sim, *[slots[i] for i in inputs], *values)  # type: ignore[index]

@@ -33,7 +33,12 @@ class Node(NamedTuple):
     overload: int = 0
 
 
-def canonical_order(nodes: Sequence[Node], root: int) -> tuple[tuple[Node, ...], list[int]]:
+#: A node as the checker builds it: a plain tuple with :class:`Node`'s fields (a NamedTuple instance costs several
+#: times more to create, and a fresh program builds one per call); :func:`canonical_order` makes ``Node`` values.
+RawNode = tuple[str | None, tuple[int, ...], tuple[Value, ...], DslType, int]
+
+
+def canonical_order(nodes: Sequence[RawNode], root: int) -> tuple[tuple[Node, ...], list[int]]:
     """Renumber ``nodes`` (any dependency order, possibly with unused nodes) canonically from ``root``.
 
     Returns the canonical node tuple and ``new_index`` (old index -> new index, -1 for dropped nodes).
@@ -47,10 +52,10 @@ def canonical_order(nodes: Sequence[Node], root: int) -> tuple[tuple[Node, ...],
         if new_index[i] >= 0:
             stack.pop()
             continue
-        for child in nodes[i].inputs:
+        for child in nodes[i][1]:
             if new_index[child] < 0:
                 # Children are visited left to right: push them reversed, revisit the parent afterwards.
-                stack.extend(reversed([c for c in nodes[i].inputs if new_index[c] < 0]))
+                stack.extend(reversed([c for c in nodes[i][1] if new_index[c] < 0]))
                 break
         else:
             stack.pop()
@@ -58,14 +63,11 @@ def canonical_order(nodes: Sequence[Node], root: int) -> tuple[tuple[Node, ...],
             order.append(i)
     if len(order) == len(nodes) and order[-1] == len(nodes) - 1 and all(
             i == k for k, i in enumerate(order)):
-        return tuple(nodes), new_index
+        return tuple([Node._make(node) for node in nodes]), new_index
     out = []
     for i in order:
-        node = nodes[i]
-        if node.inputs:
-            node = Node(node.module, tuple([new_index[j] for j in node.inputs]), node.values, node.type,
-                        node.overload)
-        out.append(node)
+        module, inputs, values, typ, overload = nodes[i]
+        out.append(Node(module, tuple([new_index[j] for j in inputs]) if inputs else inputs, values, typ, overload))
     return tuple(out), new_index
 
 

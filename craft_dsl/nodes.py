@@ -16,7 +16,7 @@ from .checker import CheckedProgram, ProgramBuilder, arity_error, resolve_module
 from .errors import NodeListError, ProgramError
 from .files import describe
 from .ir import Node, node_texts
-from .registry import NAMES, REGISTRY
+from .registry import NAMES, REGISTRY, ModuleSpec
 
 _EMPTY: tuple[()] = ()
 
@@ -50,43 +50,60 @@ def check_nodes(nodes: Sequence[Mapping[str, Any]], params: Mapping[str, str] | 
         raise NodeListError("a node list must be a non-empty list of nodes")
     builder = ProgramBuilder()
     call = builder.call
-    spec_of = NAMES.get
+    shape_of = _SHAPES.get
     built: list[int] = []
     for k, node in enumerate(nodes):
         try:
             name = node["type"]
             inputs = node.get("inputs", _EMPTY)
-            spec = spec_of(name)
+            shape = shape_of(name)
         except (TypeError, KeyError, AttributeError):
             raise NodeListError(f"must be an object with a 'type' field, found {describe(node)}",
                                 location=f"node {k}", index=k) from None
-        if spec is None:
+        if shape is None:
             _unknown_module(name, k)
-        args = []
-        try:
-            for i in inputs:
-                if type(i) is not int or not 0 <= i < k:
-                    _bad_inputs(name, inputs, k)
-                args.append(built[i])
-        except TypeError:
-            _bad_inputs(name, inputs, k)
-        if len(args) != spec.n_inputs:
-            raise NodeListError(f"{name}: {spec.name} takes {spec.n_inputs} input node(s), found {len(args)}",
-                                location=f"node {k}", index=k)
-        if spec.original_order is not None and name != spec.name:
-            args = [args[j] for j in _inverse(spec.original_order)]
-        if spec.side_inputs:
-            sides = node.get("value_inputs") or node.get("side_inputs") or _EMPTY
+        spec, n_inputs, reorder, n_sides = shape
+        # The common shapes first (one valid input, or none); everything else, errors included, below.
+        if n_inputs == 1 and type(inputs) is list and len(inputs) == 1 and type(i := inputs[0]) is int \
+                and 0 <= i < k:
+            args = [built[i]]
+        elif n_inputs == 0 and type(inputs) is list and not inputs:
+            args = []
         else:
-            sides = node.get("value_inputs") or node.get("side_inputs") or _EMPTY if len(node) > 2 else _EMPTY
-        if sides or spec.side_inputs:
-            if params is not None or type(sides) is not list or not all([type(v) is str and v[:1] != "<"
-                                                                             for v in sides]):
-                sides = _side_values(node, k, params)
-            if len(sides) != len(spec.side_inputs):
-                raise arity_error(spec, len(args) + len(sides), ("node", k))
+            args = []
+            try:
+                for i in inputs:
+                    if type(i) is not int or not 0 <= i < k:
+                        _bad_inputs(name, inputs, k)
+                    args.append(built[i])
+            except TypeError:
+                _bad_inputs(name, inputs, k)
+            if len(args) != n_inputs:
+                raise NodeListError(f"{name}: {spec.name} takes {n_inputs} input node(s), found {len(args)}",
+                                    location=f"node {k}", index=k)
+        if reorder is not None:
+            args = [args[j] for j in reorder]
+        if n_sides or len(node) > 2:
+            sides = node.get("value_inputs") or node.get("side_inputs") or _EMPTY
+            if sides or n_sides:
+                if params is not None or type(sides) is not list or not _plain_values(sides):
+                    sides = _side_values(node, k, params)
+                if len(sides) != n_sides:
+                    raise arity_error(spec, len(args) + len(sides), ("node", k))
+        else:
+            sides = _EMPTY
         built.append(call(spec, args, sides, ("node", k)))
     return builder.finish(built[-1], built)
+
+
+def _plain_values(sides: list[Any]) -> bool:
+    """Whether every side input is a string that is not a placeholder (what needs no further reading)."""
+    for v in sides:  # a loop, not all(<generator>): this runs for every node with side inputs
+        if type(v) is not str or v[:1] == "<":
+            break
+    else:
+        return True
+    return False
 
 
 def _inverse(order: tuple[int, ...]) -> tuple[int, ...]:
@@ -95,6 +112,16 @@ def _inverse(order: tuple[int, ...]) -> tuple[int, ...]:
     for original_pos, ours in enumerate(order):
         out[ours] = original_pos
     return tuple(out)
+
+
+#: Per accepted module name: (spec, number of inputs, how to reorder the inputs of an original name or None,
+#: number of side inputs); one lookup per node instead of several attribute reads.
+_SHAPES: dict[str, tuple[ModuleSpec, int, tuple[int, ...] | None, int]] = {
+    name: (spec, spec.n_inputs,
+           _inverse(spec.original_order) if spec.original_order is not None and name != spec.name else None,
+           len(spec.side_inputs))
+    for name, spec in NAMES.items()
+}
 
 
 def _unknown_module(name: Any, k: int) -> NoReturn:

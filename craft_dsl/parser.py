@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
+from typing import Any
 
 from .checker import CheckedProgram, ProgramBuilder, check_tree
 from .errors import ParseError, ProgramError
@@ -43,14 +45,26 @@ _NAME_START = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz_")
 _INT_START = frozenset("-0123456789")
 
 
+#: Per module name: (spec, number of inputs, number of arguments with the side inputs).
+_SHAPES: dict[str, tuple[ModuleSpec, int, int]] = {
+    name: (spec, spec.n_inputs, spec.arity) for name, spec in NAMES.items()
+}
+#: An open call: its shape, its arguments so far (input node ids, then side-input values), its reading-order index.
+_Frame = tuple[ModuleSpec, int, int, list[Any], int]
+
+
 def fast_check(text: str) -> CheckedProgram | None:
     """The checked program of binding-free text, or None where the full parser must decide."""
     toks = _FAST_TOKEN.findall(text)
     if not toks or "Var" in toks:
         return None
     builder = ProgramBuilder()
+    call = builder.call
+    shape_of = _SHAPES.get
     sources: list[int] = []
-    frames: list[tuple[ModuleSpec, list[int], list[Value], int]] = []
+    # One frame per open call: its shape, its arguments so far (input node ids, then side-input values) and
+    # the index of the call in reading order.
+    frames: list[_Frame] = []
     n = len(toks)
     i = 0
     try:
@@ -61,16 +75,17 @@ def fast_check(text: str) -> CheckedProgram | None:
             if first in _NAME_START:
                 if toks[i + 1] != "(":
                     return None
-                spec = NAMES.get(tok)
-                if spec is None:
+                shape = shape_of(tok)
+                if shape is None:
                     return None
+                frame: _Frame = (*shape, [], len(sources))
                 sources.append(-1)
-                frames.append((spec, [], [], len(sources) - 1))
                 i += 2
                 if toks[i] != ")":
+                    frames.append(frame)
                     continue
                 i += 1
-                node: int | None = _close(builder, frames.pop(), sources)
+                node: int | None = _close(call, frame, sources)
                 value = 0
             elif first == '"':
                 node, value = None, tok[1:-1]
@@ -85,12 +100,12 @@ def fast_check(text: str) -> CheckedProgram | None:
                     if i != n or node is None:
                         return None
                     return builder.finish(node, sources)
-                spec, ids, sides, _source = frames[-1]
-                k = len(ids) + len(sides)
-                if k < spec.n_inputs and not sides:
-                    ids.append(node if node is not None else builder.input_literal(spec, k, value, None))
-                elif k < spec.arity and node is None and isinstance(value, str):
-                    sides.append(value)
+                spec, n_inputs, arity, args, _source = frames[-1]
+                k = len(args)
+                if k < n_inputs:
+                    args.append(node if node is not None else builder.input_literal(spec, k, value, None))
+                elif k < arity and node is None and isinstance(value, str):
+                    args.append(value)
                 else:
                     return None
                 tok = toks[i]
@@ -99,17 +114,16 @@ def fast_check(text: str) -> CheckedProgram | None:
                     break
                 if tok != ")":
                     return None
-                node = _close(builder, frames.pop(), sources)
+                node = _close(call, frames.pop(), sources)
     except (IndexError, ValueError, ProgramError):
         return None
 
 
-def _close(builder: ProgramBuilder, frame: tuple[ModuleSpec, list[int], list[Value], int], sources: list[int]) -> int:
-    spec, ids, sides, source = frame
-    if len(ids) != spec.n_inputs or len(sides) != len(spec.side_inputs):
+def _close(call: Callable[..., int], frame: _Frame, sources: list[int]) -> int:
+    spec, n_inputs, arity, args, source = frame
+    if len(args) != arity:
         raise ParseError("arity")  # caught by fast_check: the full path reports it
-    node = builder.call(spec, ids, sides)
-    sources[source] = node
+    node = sources[source] = call(spec, args[:n_inputs], args[n_inputs:]) if arity > n_inputs else call(spec, args, ())
     return node
 
 

@@ -8,9 +8,11 @@ from typing import TYPE_CHECKING, Any
 from .checker import CheckedProgram, check_tree
 from .evaluator import Plan, TraceEntry
 from .ir import Node, node_texts, to_exprs
+from .nodes import check_nodes
 from .parser import check_text
 from .simulation import Event, Simulation
 from .syntax import Tree, format_expr, format_tree
+from .tokens import check_tokens
 from .types import INVALID, INVALID_JSON, DslType
 from .vocabulary import ORIGINAL_EVENT_TYPE
 
@@ -58,15 +60,11 @@ class Program:
 
         ``params`` binds template placeholders such as ``{"<Z>": "small", "<C>": "red"}``.
         """
-        from .nodes import check_nodes
-
         return cls._from_checked(check_nodes(nodes, params))
 
     @classmethod
     def from_tokens(cls, tokens: Sequence[str] | str, order: TokenOrder = "prefix") -> Program:
         """Read a prefix or postfix token sequence (a list of tokens, or one space-separated string)."""
-        from .tokens import check_tokens
-
         return cls._from_checked(check_tokens(tokens, order))
 
     # -- forms ----------------------------------------------------------------------------------------

@@ -216,7 +216,7 @@ def check_tokens(tokens: Sequence[str] | str, order: TokenOrder = "prefix") -> C
     toks = (_Token(k, w) for k, w in enumerate(words))
     root = _read_prefix(builder, toks, sources, len(words)) if order == "prefix" else \
         _read_postfix(builder, toks, sources)
-    if builder.nodes[root].module is None:
+    if builder.nodes[root][0] is None:
         raise TokenError("a program must contain a module; a lone value is not a program")
     return builder.finish(root, sources)
 
