@@ -97,6 +97,22 @@ def test_program_cache_reads_each_distinct_program_once() -> None:
     assert len(cache) == 2  # the oldest entry left
 
 
+
+def test_program_cache_keys_node_lists_by_their_exact_form() -> None:
+    """A node list that reads differently is never served another's entry: ``"inputs": null`` is an error where no
+    ``inputs`` is valid, and a list holding objects marshal cannot write is read, not cached."""
+    cache = ProgramCache()
+    ok = [{"type": "end_scene"}, {"type": "count", "inputs": [0]}]
+    bad = [{"type": "end_scene", "inputs": None}, {"type": "count", "inputs": [0]}]
+    assert str(cache.get(ok, "nodes")) == "Count(SceneAtEnd())"
+    with pytest.raises(CraftError, match="'inputs' must be a list of node indexes, found null"):
+        cache.get(bad, "nodes")
+    assert cache.get([dict(n) for n in ok], "nodes") is cache.get(ok, "nodes")
+    odd = [{"type": "end_scene", "inputs": object()}]
+    with pytest.raises(CraftError):
+        cache.get(odd, "nodes")
+    assert len(cache) == 2
+
 # -- traces -----------------------------------------------------------------------------------------------------
 
 

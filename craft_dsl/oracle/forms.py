@@ -9,6 +9,7 @@ before (beams, epochs) pays for reading, checking and compiling once.
 
 from __future__ import annotations
 
+import marshal
 from collections.abc import Mapping, Sequence
 from typing import Any, Literal
 
@@ -51,9 +52,11 @@ def read_program(program: Any, form: ProgramForm | None = None) -> Program:
     raise CraftError(f"unknown program form {form!r}; allowed: {', '.join(FORMS)}")
 
 
-def _node_key(nodes: Sequence[Mapping[str, Any]]) -> tuple[Any, ...]:
-    return tuple((n.get("type"), tuple(n.get("inputs") or ()),
-                  tuple(n.get("value_inputs") or n.get("side_inputs") or ())) for n in nodes)
+def _node_key(nodes: Sequence[Mapping[str, Any]]) -> bytes:
+    """The exact written form of a node list: marshal's version 2 (no back-references, so equal lists give equal
+    bytes), which tells apart what a looser key would merge (``"inputs": null`` from no ``inputs``, ``1`` from
+    ``True``, a node's every field); raises ValueError for objects marshal cannot write."""
+    return marshal.dumps(nodes, 2)  # type: ignore[arg-type]  # refused with ValueError where not plain
 
 
 class ProgramCache:
@@ -78,7 +81,7 @@ class ProgramCache:
                 key = program
             else:
                 key = tuple(program)
-        except (TypeError, AttributeError):  # not hashable or not a node list: read it to get the precise error
+        except (TypeError, AttributeError, ValueError):  # not a plain node list: read it for the precise error
             return read_program(program, form)
         entry = self._entries.get((form, key))
         if entry is None:
