@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from craft_dsl.cli import main
-from craft_dsl.errors import ReaderError
+from craft_dsl.errors import InputFileError, ReaderError
 from craft_dsl.physics import simulate
 from craft_dsl.reader.answer import Question, answer_questions, find_videos, format_answer, read_questions
 from craft_dsl.reader.detect import BLACK, PALETTE, WHITE, Blob, blobs, grid_labels, lookup
@@ -198,6 +198,11 @@ def test_bad_question_files_are_refused_with_the_record(tmp_path: Path) -> None:
     path.write_text(json.dumps([{"video_index": "0", "question_index": 1, "question": "x"}]))
     with pytest.raises(ReaderError, match="record 0: field 'video_index' must be an integer"):
         read_questions(path)
+    path.write_text("[" * 100_000 + "]" * 100_000)  # read by the project's one file reader: no RecursionError
+    with pytest.raises(InputFileError, match="nested deeper than 100 levels"):
+        read_questions(path)
+    with pytest.raises(InputFileError, match="directory"):
+        read_questions(tmp_path)
     with pytest.raises(ReaderError, match="no video for video_index 7"):
         find_videos(tmp_path, [7])
 

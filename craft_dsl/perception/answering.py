@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from ..errors import CraftError, PerceptionError
+from ..files import read_json
 from ..program import Program, to_json
 from ..templates import first_instances
 from ..verify.answers import answers_agree
@@ -103,12 +103,7 @@ def read_question_file(path: str | Path, video_index: int | None = None) -> list
     """Questions with programs: a list of question records (as ``generate_questions`` writes them), or a CRAFT
     ``dataset.json`` (one video, chosen by ``video_index`` when it holds several)."""
     p = Path(path)
-    try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise PerceptionError(f"cannot read questions {p}: {err.strerror}") from None
-    except json.JSONDecodeError as err:
-        raise PerceptionError(f"{p}: not valid JSON (line {err.lineno}, column {err.colno})") from None
+    data = read_json(p, "questions file")  # missing, a directory, not UTF-8, not JSON, too deep: InputFileError
     items = []
     for i, record in enumerate(_records(data, str(p), video_index)):
         where = f"{p}: question record {i}"

@@ -9,7 +9,6 @@ hold the scene id in the published layout, are not read).
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -17,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import CraftError, ReaderError
+from ..files import read_json
 from ..perception.distribution import answer_distributions
 from ..perception.schema import PerceivedScene
 from ..perception.world import SceneModel
@@ -74,12 +74,7 @@ def read_questions(path: str | os.PathLike[str]) -> list[Question]:
     """The questions of a ``dataset_minimal.json``-style file: a list of records with ``video_index``,
     ``question_index`` and ``question`` (other fields are not read)."""
     p = Path(path)
-    try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise ReaderError(f"cannot read questions {p}: {err.strerror}") from None
-    except json.JSONDecodeError as err:
-        raise ReaderError(f"{p}: not valid JSON (line {err.lineno}, column {err.colno})") from None
+    data = read_json(p, "questions file")  # missing, a directory, not UTF-8, not JSON, too deep: InputFileError
     if not isinstance(data, list):
         raise ReaderError(f"{p}: expected a list of question records (as dataset_minimal.json), got "
                           f"{type(data).__name__}")
