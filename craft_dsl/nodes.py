@@ -9,7 +9,7 @@ Errors name the node (``node 3``) as well as what is wrong.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NoReturn
 
 from .checker import _RESOLUTIONS, _VALUES, CheckedProgram, ProgramBuilder, arity_error, resolve_module
@@ -111,7 +111,7 @@ def _check_common(nodes: list[Any]) -> CheckedProgram | None:
     and ``value_inputs`` or ``side_inputs`` (a list of vocabulary words), and ``_output`` at most, with input
     types whose overload is already resolved. None where anything else is met, for :func:`check_nodes`'s
     general reading, which gives the same program for such lists or the exact error."""
-    common = _COMMON.get
+    common: Callable[[Any], _Common | None] = _COMMON.get  # any hashable "type" may be looked up
     resolutions = _RESOLUTIONS
     raw: list[RawNode] = []
     index: dict[RawNode, int] = {}
@@ -211,10 +211,11 @@ _SHAPES: dict[str, tuple[ModuleSpec, int, tuple[int, ...] | None, int]] = {
 
 
 _OBJECT = DslType.OBJECT
+_Common = tuple[str, int, bool, dict[str, str] | None]
 #: Per accepted module name, for :func:`_check_common`: (canonical name, number of inputs, whether the two inputs
 #: of an original name are swapped, the accepted spellings of its one side input or None where it has none).
 #: Modules of other shapes (none today) are left to the general reading.
-_COMMON: dict[str, tuple[str, int, bool, dict[str, str] | None]] = {
+_COMMON: dict[str, _Common] = {
     name: (spec.name, n_inputs, reorder == (1, 0), _VALUES[spec.side_inputs[0]] if n_sides else None)
     for name, (spec, n_inputs, reorder, n_sides) in _SHAPES.items()
     if n_inputs <= 2 and n_sides <= 1 and reorder in (None, (0, 1), (1, 0))
