@@ -115,10 +115,10 @@ class ProgramBuilder:
         self._index: dict[RawNode, int] = {}
 
     def _add(self, node: RawNode) -> int:
-        found = self._index.get(node)
-        if found is None:
-            found = self._index[node] = len(self.nodes)
-            self.nodes.append(node)
+        nodes = self.nodes
+        found = self._index.setdefault(node, len(nodes))  # one hash of the node, where get-then-set takes two
+        if found == len(nodes):
+            nodes.append(node)
         return found
 
     def literal(self, value: Value, typ: DslType) -> int:
@@ -189,9 +189,8 @@ class ProgramBuilder:
                     checked.append(found)
                 values = tuple(checked)
         node: RawNode = (name, tuple(inputs), values, output, overload)
-        found_id = self._index.get(node)
-        if found_id is None:
-            found_id = self._index[node] = len(nodes)
+        found_id = self._index.setdefault(node, len(nodes))
+        if found_id == len(nodes):
             nodes.append(node)
         return found_id
 

@@ -145,24 +145,37 @@ class Plan:
         """One run straight from the nodes, without building instructions or constant slots (the cheapest way
         to run a program once). Every input is tested for INVALID, which gives the same answers as testing only
         the inputs that can be INVALID."""
-        nodes = self.nodes
-        needed = self._needed()
-        slots: list[Any] = [None] * len(needed)
+        nodes, root = self.nodes, self.root
+        # The needed nodes, found from the root down (as in _needed), collected so that the run visits only them.
+        slots: list[Any] = [False] * (root + 1)
+        slots[root] = True
+        order: list[int] = []
+        for i in range(root, -1, -1):
+            if slots[i]:
+                order.append(i)
+                for j in nodes[i][1]:
+                    slots[j] = True
         invalid = INVALID
-        for i, is_needed in enumerate(needed):
-            if not is_needed:
-                continue
+        impls = IMPLS
+        for i in reversed(order):  # slots[i] holds a flag until node i's value replaces it
             module, inputs, values, _type, _overload = nodes[i]
             if module is None:
                 slots[i] = values[0]
-            elif not inputs:
-                slots[i] = IMPLS[module](sim, *values)
-            elif len(inputs) == 1:
+                continue
+            n = len(inputs)
+            if n == 1:
                 a = slots[inputs[0]]
-                slots[i] = invalid if a is invalid else IMPLS[module](sim, a, *values)
-            elif len(inputs) == 2:
+                if a is invalid:
+                    slots[i] = invalid
+                elif values:
+                    slots[i] = impls[module](sim, a, *values)
+                else:
+                    slots[i] = impls[module](sim, a)
+            elif n == 2:
                 a, b = slots[inputs[0]], slots[inputs[1]]
-                slots[i] = invalid if a is invalid or b is invalid else IMPLS[module](sim, a, b, *values)
+                slots[i] = invalid if a is invalid or b is invalid else impls[module](sim, a, b, *values)
+            elif n == 0:
+                slots[i] = impls[module](sim, *values) if values else impls[module](sim)
             else:
                 args = [slots[j] for j in inputs]
                 for a in args:
@@ -170,8 +183,8 @@ class Plan:
                         slots[i] = invalid
                         break
                 else:
-                    slots[i] = IMPLS[module](sim, *args, *values)
-        return slots[self.root]
+                    slots[i] = impls[module](sim, *args, *values)
+        return slots[root]
 
     def compile(self) -> Callable[[Simulation], Any]:
         """The program as one Python function (no per-node dispatch); costs about as much as a few hundred
