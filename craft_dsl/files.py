@@ -24,8 +24,7 @@ import os
 import re
 from collections.abc import Iterator
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 from .errors import InputFileError
 
@@ -50,20 +49,39 @@ PathLike = str | os.PathLike[str]
 # -- reading bytes and text --------------------------------------------------------------------------------
 
 
-def read_bytes(path: PathLike, what: str, *, error: ErrorType = InputFileError,
-               max_bytes: int = MAX_FILE_BYTES) -> bytes:
-    """The bytes of a file; ``what`` names the file's role in messages ("simulation file")."""
-    p = Path(path)
-    name = str(p)
+def open_binary(path: PathLike, what: str, *, error: ErrorType = InputFileError) -> IO[bytes]:
+    """``path`` opened for reading bytes; a missing file, a directory or an unreadable one is ``error`` naming the
+    file and its role (``what``)."""
+    name = str(path)
     try:
-        with open(p, "rb") as fh:
-            size = os.fstat(fh.fileno()).st_size
-            too_large = size > max_bytes  # refused below without reading it
-            data = b"" if too_large else fh.read() if size else _read_at_most(fh, max_bytes)
+        return open(path, "rb")  # noqa: SIM115 - the caller closes it
     except FileNotFoundError:
         raise error(f"{name}: no such file (expected the {what})", path=name) from None
     except IsADirectoryError:
         raise error(f"{name}: is a directory; expected the {what} (a file)", path=name) from None
+    except OSError as err:
+        raise error(f"{name}: cannot read the {what}: {err.strerror or err}", path=name) from None
+
+
+def refuse_utf16_or_32(head: bytes, where: str, what: str, *, error: ErrorType = InputFileError,
+                       path: str | None = None) -> None:
+    """Refuse text whose first bytes ``head`` are a UTF-16 or UTF-32 byte order mark (say which, and to save it as
+    UTF-8)."""
+    for bom, encoding in _BOMS:
+        if head.startswith(bom):
+            raise error(f"{where}: the {what} is {encoding} text (it starts with a {encoding} byte order mark); "
+                        "save it as UTF-8", path=path, line=1, column=1)
+
+
+def read_bytes(path: PathLike, what: str, *, error: ErrorType = InputFileError,
+               max_bytes: int = MAX_FILE_BYTES) -> bytes:
+    """The bytes of a file; ``what`` names the file's role in messages ("simulation file")."""
+    name = str(path)
+    try:
+        with open_binary(path, what, error=error) as fh:
+            size = os.fstat(fh.fileno()).st_size
+            too_large = size > max_bytes  # refused below without reading it
+            data = b"" if too_large else fh.read() if size else _read_at_most(fh, max_bytes)
     except OSError as err:
         raise error(f"{name}: cannot read the {what}: {err.strerror or err}", path=name) from None
     if too_large or len(data) > max_bytes:
@@ -88,10 +106,7 @@ def _read_at_most(fh: Any, max_bytes: int) -> bytes:
 def decode_text(data: bytes, where: str, what: str, *, error: ErrorType = InputFileError,
                 path: str | None = None) -> str:
     """``data`` decoded as UTF-8 (a byte order mark is skipped); anything else is refused with its position."""
-    for bom, encoding in _BOMS:
-        if data.startswith(bom):
-            raise error(f"{where}: the {what} is {encoding} text (it starts with a {encoding} byte order mark); "
-                        "save it as UTF-8", path=path, line=1, column=1)
+    refuse_utf16_or_32(data, where, what, error=error, path=path)
     if data.startswith(codecs.BOM_UTF8):
         data = data[len(codecs.BOM_UTF8):]
     try:

@@ -17,11 +17,19 @@ from __future__ import annotations
 
 import codecs
 from collections.abc import Iterator
-from pathlib import Path
 from typing import IO, Any
 
 from .errors import InputFileError
-from .files import MAX_JSON_DEPTH, ErrorType, PathLike, decode_text, describe, parse_json
+from .files import (
+    MAX_JSON_DEPTH,
+    ErrorType,
+    PathLike,
+    decode_text,
+    describe,
+    open_binary,
+    parse_json,
+    refuse_utf16_or_32,
+)
 
 #: Bytes read at a time.
 BLOCK_BYTES = 1 << 16
@@ -32,23 +40,14 @@ _SCALARS = frozenset(("string", "number", "boolean", "null"))
 
 
 def _open(path: PathLike, what: str, error: ErrorType) -> IO[bytes]:
-    p = Path(path)
-    name = str(p)
-    try:
-        fh = open(p, "rb")  # noqa: SIM115 - closed by the caller's generator
-    except FileNotFoundError:
-        raise error(f"{name}: no such file (expected the {what})", path=name) from None
-    except IsADirectoryError:
-        raise error(f"{name}: is a directory; expected the {what} (a file)", path=name) from None
-    except OSError as err:
-        raise error(f"{name}: cannot read the {what}: {err.strerror or err}", path=name) from None
+    name = str(path)
+    fh = open_binary(path, what, error=error)  # closed by the caller's generator
     head = fh.read(4)
-    for bom, encoding in ((codecs.BOM_UTF32_LE, "UTF-32"), (codecs.BOM_UTF32_BE, "UTF-32"),
-                          (codecs.BOM_UTF16_LE, "UTF-16"), (codecs.BOM_UTF16_BE, "UTF-16")):
-        if head.startswith(bom):
-            fh.close()
-            raise error(f"{name}: the {what} is {encoding} text (it starts with a {encoding} byte order mark); "
-                        "save it as UTF-8", path=name, line=1, column=1)
+    try:
+        refuse_utf16_or_32(head, name, what, error=error, path=name)
+    except InputFileError:
+        fh.close()
+        raise
     fh.seek(len(codecs.BOM_UTF8) if head.startswith(codecs.BOM_UTF8) else 0)
     return fh
 
