@@ -81,7 +81,7 @@ class ProgramCache:
                 key = program
             else:
                 key = tuple(program)
-        except (TypeError, AttributeError, ValueError):  # not a plain node list: read it for the precise error
+        except (TypeError, ValueError):  # not iterable, or not a plain node list: read it for the precise error
             return read_program(program, form)
         entry = self._entries.get((form, key))
         if entry is None:
