@@ -51,6 +51,7 @@ class _Replay:
     """An executor that hands back results computed beforehand (to time the dataset-level work alone)."""
 
     description = "results computed beforehand"
+    spare_cores = False
 
     def __init__(self, results: dict[int, InstanceResult]) -> None:
         self.results = results
@@ -63,7 +64,7 @@ class _Replay:
 
 def stages(n: int) -> None:
     from craft_dsl.physics.pymunk_engine import PymunkEngine
-    from craft_dsl.render.raster import iter_frames
+    from craft_dsl.render.yuv import iter_yuv420
     from craft_dsl.scenes import sample_world
 
     config = P.GenerationConfig.make(size=n)
@@ -92,15 +93,18 @@ def stages(n: int) -> None:
 
     from craft_dsl.physics import simulate
 
-    sim = simulate(work[0][1], seed=P.instance_seeds(config.seed, 0)[0])
-    media_task = InstanceTask(0, work[0][1], config.seed, config.steps, 0, 0.0, "pymunk", ())
-    render_media(sim, media_task)
-    start = time.perf_counter()
-    sum(1 for _ in iter_frames(sim))
-    render = time.perf_counter() - start
-    start = time.perf_counter()
-    render_media(sim, media_task)
-    media = time.perf_counter() - start
+    # media of up to 10 of the videos: CPU time of this process (the encoder runs in it)
+    sims = [simulate(s, seed=P.instance_seeds(config.seed, i)[0]) for i, s in work[:10]]
+    media_tasks = [InstanceTask(i, s, config.seed, config.steps, 0, 0.0, "pymunk", ()) for i, s in work[:10]]
+    render_media(sims[0], media_tasks[0])  # warm up
+    start = time.process_time()
+    for sim in sims:
+        sum(1 for _ in iter_yuv420(sim))
+    render = (time.process_time() - start) / len(sims)
+    start = time.process_time()
+    for sim, media_task in zip(sims, media_tasks, strict=True):
+        render_media(sim, media_task)
+    media = (time.process_time() - start) / len(sims)
 
     per = total / n
     print(f"stage breakdown: {n} videos (scenes 1-20), {config.steps} steps, {config.perturbations} perturbations, "
@@ -124,8 +128,8 @@ def stages(n: int) -> None:
     print(f"| **per video, in a worker** | **{per * 1000:.0f}** | 100% | {runs:.1f} |")
     print(f"| dataset level (shards written, merge, splits, report, HF files), main process | {merge * 1000:.1f} | "
           f"{merge / per:.0%} of a video | |")
-    print(f"| with --videos: render {config.steps} frames + MPEG-1 encode (FFmpeg process) + 2 PNG | "
-          f"{media * 1000:.0f} (render {render * 1000:.0f}) | {media / per:.0%} of a video | |")
+    print(f"| with --videos: render {config.steps} frames to YUV + MPEG-1 encode (PyAV, in the worker) + 2 PNG | "
+          f"{media * 1000:.0f} (render and YUV {render * 1000:.0f}) | {media / per:.0%} of a video | |")
     floor = bare / config.steps * clock.frames / n
     print(f"floor: bare pymunk stepping (Chipmunk's step alone) {bare * 1000:.1f} ms per {config.steps}-step run; "
           f"a video simulates {clock.frames / n:.0f} frames in {runs:.1f} runs = {floor * 1000:.0f} ms of bare "

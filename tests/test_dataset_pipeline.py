@@ -347,3 +347,27 @@ def test_no_balance_keeps_every_filtered_question(tmp_path: Path) -> None:
     q = report["questions"]
     assert q["final"] == q["after_post_process"] > 0
     assert not any(q["dropped_by_balancing"].values())
+
+
+def test_media_in_a_thread_or_inline_are_the_same_bytes() -> None:
+    from dataclasses import replace
+
+    from craft_dsl.dataset.instance import run_instance
+
+    config = P.GenerationConfig.make(size=1, scenes=(7,), steps=120, perturbations=1)
+    task = P.instance_task(config, 0, 7, questions=True, media=True, media_thread=True)
+    threaded = run_instance(task)
+    inline = run_instance(replace(task, media_thread=False))
+    assert threaded == inline
+    assert [path for path, _ in inline.media] == ["videos/sid_7/000000.mpg", "first_frames/sid_7/000000.png",
+                                                  "last_frames/sid_7/000000.png"]
+    assert inline.shard is not None and all(data for _, data in inline.media)
+
+
+def test_local_workers_use_a_media_thread_only_with_a_spare_core(monkeypatch: pytest.MonkeyPatch) -> None:
+    from craft_dsl.dataset import executors
+
+    monkeypatch.setattr(executors.os, "cpu_count", lambda: 2)
+    assert executors.LocalExecutor(1).spare_cores
+    assert not executors.LocalExecutor(2).spare_cores
+    assert not executors.LocalExecutor(3).spare_cores

@@ -39,6 +39,9 @@ class Executor(Protocol):
     """Runs tasks, calls ``on_result`` in the calling thread for each finished one, returns the failures."""
 
     description: str
+    #: Whether the machine has cores beyond the workers', so that a worker's media may be rendered in a thread
+    #: beside its physics (:attr:`InstanceTask.media_thread`); executors without it are taken to fill every core.
+    spare_cores: bool
 
     def run(self, tasks: Iterable[InstanceTask], on_result: OnResult) -> list[Failure]: ...
 
@@ -122,6 +125,7 @@ class LocalExecutor:
             raise CraftError(f"--workers {workers}: give at least 1")
         self.workers = workers
         self.in_process = workers == 1 if in_process is None else in_process
+        self.spare_cores = workers < (os.cpu_count() or 1)
         self.description = "this process" if self.in_process else \
             f"{workers} local worker process{'es' if workers > 1 else ''}"
 
@@ -211,6 +215,7 @@ class DaskExecutor:
         self._scheduler = scheduler
         self._timeout = timeout
         self.description = f"the Dask cluster at {scheduler}"
+        self.spare_cores = False  # a cluster's workers are started one per core
 
     def _client(self) -> tuple[Any, bool]:
         if isinstance(self._scheduler, self._distributed.Client):

@@ -57,7 +57,7 @@ from .stages import (
 
 #: Version of the generated folder's format: bumped whenever the output for a given seed and configuration
 #: changes (docs/dataset.md, "Changelog of the output"); a folder of another version is refused.
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 
 #: Settings that decide the content of the files (``workers`` and the executor do not). ``videos`` and
 #: ``downsampled`` decide only which media files exist; ``video_format`` is content, since every JSON file names
@@ -349,13 +349,13 @@ def _peak_memory() -> str:
 
 
 def instance_task(config: GenerationConfig, instance_id: int, scene: int, questions: bool = True,
-                  media: bool = False) -> InstanceTask:
+                  media: bool = False, media_thread: bool = True) -> InstanceTask:
     """The task of one video: its questions (the shard) and/or its media files; a custom scene's task carries its
     layout's canonical JSON."""
     custom = config.custom_scenes.get(scene)
     return InstanceTask(instance_id, scene, config.seed, config.steps, config.perturbations, config.amount,
                         config.engine, config.templates, config.video_format, questions, media, config.downsampled,
-                        custom.layout if custom is not None else "")
+                        custom.layout if custom is not None else "", media_thread)
 
 
 class _MergeThread:
@@ -427,10 +427,12 @@ def generate_dataset(
             {i for b in range(merger.merged) for i in merger.block_ids(b)}
         done = set(merged_ids) | {i for i, _ in work if i not in merged_ids and shard_is_complete(shard_path(root, i))}
         tasks = []
+        media_thread = getattr(executor, "spare_cores", False)
         for i, scene in work:
             media = config.videos and not media_complete(root, scene, i, config.video_format, config.downsampled)
             if i not in done or media:
-                tasks.append(instance_task(config, i, scene, questions=i not in done, media=media))
+                tasks.append(instance_task(config, i, scene, questions=i not in done, media=media,
+                                           media_thread=media_thread))
         resumed = len(done)
         log.write(f"start: {len(work)} videos, {resumed} already done, {len(tasks)} tasks on {executor.description}"
                   + (f"; removed {swept} temporary files of an interrupted run" if swept else ""))

@@ -273,8 +273,22 @@ def _sprites(world: WorldSpec, traj: Trajectory, size: int) -> list[_DynamicSpri
     return out
 
 
+@dataclass(frozen=True)
+class PaintedWindows:
+    """Where one dynamic body was painted in a chunk of frames: the frames it is visible in (``frames``,
+    indices into the chunk), the top-left pixel of its square window there (``x0``, ``y0``), the window's
+    side and the body's pixel state (centre x, centre y, angle) [len(frames), 3]. Pixels outside a body's
+    windows are not touched by it; equal states paint equal windows."""
+
+    frames: np.ndarray
+    x0: np.ndarray
+    y0: np.ndarray
+    side: int
+    states: np.ndarray
+
+
 def _paint_dynamic(buf: np.ndarray, sprite: _DynamicSprite, pos: np.ndarray, ang: np.ndarray,
-                   size: int) -> None:
+                   size: int) -> PaintedWindows:
     """Paint one body into frames ``buf`` [n, size, size, 3] uint8 at states pos [n, 2], ang [n]."""
     n = buf.shape[0]
     ppm = px_per_metre(size)
@@ -287,7 +301,8 @@ def _paint_dynamic(buf: np.ndarray, sprite: _DynamicSprite, pos: np.ndarray, ang
     r = (w / 2 + 2) / ppm
     visible = (cx + r * ppm > 0) & (cx - r * ppm < size) & (cy + r * ppm > 0) & (cy - r * ppm < size)
     if not visible.any():
-        return
+        empty = np.zeros(0, dtype=np.int64)
+        return PaintedWindows(empty, empty, empty, w, np.zeros((0, 3)))
     if not visible.all():
         idx = np.nonzero(visible)[0]
         x0, y0, cx, cy, ang = x0[idx], y0[idx], cx[idx], cy[idx], ang[idx]
@@ -311,6 +326,7 @@ def _paint_dynamic(buf: np.ndarray, sprite: _DynamicSprite, pos: np.ndarray, ang
         ya, xa = int(y0[k]), int(x0[k])
         window = buf[frame_index, ya:ya + w, xa:xa + w]
         window[...] = window * keep[k] + base[k]
+    return PaintedWindows(idx, x0, y0, w, states)
 
 
 def _shade(sprite: _DynamicSprite, x0: np.ndarray, y0: np.ndarray, cx: np.ndarray, cy: np.ndarray,
@@ -407,8 +423,10 @@ def frame_steps(steps: int, fps: float = SIM_FPS, sim_fps: int = SIM_FPS) -> np.
 
 
 def render_states(world: WorldSpec, traj: Trajectory, rows: Sequence[int] | np.ndarray,
-                  size: int = DEFAULT_SIZE, out: np.ndarray | None = None) -> np.ndarray:
-    """Frames uint8 [len(rows), size, size, 3] of the given trajectory rows (drawn into ``out`` if given)."""
+                  size: int = DEFAULT_SIZE, out: np.ndarray | None = None,
+                  windows: list[PaintedWindows] | None = None) -> np.ndarray:
+    """Frames uint8 [len(rows), size, size, 3] of the given trajectory rows (drawn into ``out`` if given);
+    ``windows``, if given, receives where each dynamic body was painted, in painting order."""
     rows_a = np.asarray(rows, dtype=np.int64).reshape(-1)
     n_rows = traj.positions.shape[0]
     if rows_a.size and (rows_a.min() < 0 or rows_a.max() >= n_rows):
@@ -424,7 +442,9 @@ def render_states(world: WorldSpec, traj: Trajectory, rows: Sequence[int] | np.n
     positions = np.asarray(traj.positions, dtype=np.float64)
     angles = np.asarray(traj.angles, dtype=np.float64)
     for sprite in _sprites(world, traj, size):
-        _paint_dynamic(buf, sprite, positions[rows_a, sprite.column], angles[rows_a, sprite.column], size)
+        painted = _paint_dynamic(buf, sprite, positions[rows_a, sprite.column], angles[rows_a, sprite.column], size)
+        if windows is not None:
+            windows.append(painted)
     return buf
 
 
