@@ -27,11 +27,18 @@ TILE = 8
 
 
 def _luma(r: np.ndarray, g: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return (((66 * r + 129 * g + 25 * b + 128) >> 8) + 16).astype(np.uint8)
+    """Y of uint16 R, G, B (the sum stays below 2**16)."""
+    y = r * np.uint16(66)
+    y += g * np.uint16(129)
+    y += b * np.uint16(25)
+    y += np.uint16(128)
+    y >>= 8
+    y += np.uint16(16)
+    return y.astype(np.uint8)
 
 
 def _chroma(r: np.ndarray, g: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """U and V from sums of 2 x 2 blocks (four times the mean; hence the shift by 10 and the rounding 512)."""
+    """U and V from int32 sums of 2 x 2 blocks (four times the mean; hence the shift by 10 and the rounding 512)."""
     u = ((-38 * r - 74 * g + 112 * b + 512) >> 10) + 128
     v = ((112 * r - 94 * g - 18 * b + 512) >> 10) + 128
     return u.astype(np.uint8), v.astype(np.uint8)
@@ -39,11 +46,13 @@ def _chroma(r: np.ndarray, g: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np
 
 def _convert(rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Y [..., h, w] and U, V [..., h/2, w/2] of uint8 RGB [..., h, w, 3] with even h and w."""
-    x = rgb.astype(np.int32)
+    x = rgb.astype(np.uint16)
     y = _luma(x[..., 0], x[..., 1], x[..., 2])
-    *lead, h, w, _ = x.shape
-    s = x.reshape(*lead, h // 2, 2, w // 2, 2, 3).sum(axis=(-4, -2))
-    u, v = _chroma(s[..., 0], s[..., 1], s[..., 2])
+    s = x[..., ::2, ::2, :] + x[..., 1::2, ::2, :]
+    s += x[..., ::2, 1::2, :]
+    s += x[..., 1::2, 1::2, :]
+    s32 = s.astype(np.int32)
+    u, v = _chroma(s32[..., 0], s32[..., 1], s32[..., 2])
     return y, u, v
 
 
