@@ -142,10 +142,12 @@ def write_yuv420(planes: Iterable[np.ndarray], path: str | os.PathLike[str], fps
                 frame = av.VideoFrame(size, size, "yuv420p")
                 y, u, v = frame.planes
                 if (y.line_size, u.line_size, v.line_size) == (size, size // 2, size // 2):
-                    flat = buffer.reshape(-1)  # unpadded planes: copied in (a sixth of from_ndarray's cost)
-                    y.update(flat[:luma])
-                    u.update(flat[luma:luma + chroma])
-                    v.update(flat[luma + chroma:])
+                    # unpadded planes: copied in (a sixth of from_ndarray's cost); update() reads any buffer,
+                    # though PyAV's stubs say bytes
+                    flat = buffer.reshape(-1)
+                    y.update(flat[:luma])  # type: ignore[arg-type]
+                    u.update(flat[luma:luma + chroma])  # type: ignore[arg-type]
+                    v.update(flat[luma + chroma:])  # type: ignore[arg-type]
                 else:
                     frame = av.VideoFrame.from_ndarray(buffer, format="yuv420p")
                 frame.pts = count
