@@ -100,7 +100,8 @@ def decode(path: str | os.PathLike[str], decoder: Decoder = "auto") -> np.ndarra
         raise ReaderError(f"unknown decoder {decoder!r}; allowed: {', '.join(DECODERS)}")
     if decoder == "pyav" or (decoder == "auto" and have_pyav()):
         if not have_pyav():
-            raise ReaderError("the pyav decoder needs PyAV: pip install 'craft-dsl[reader]'")
+            raise ReaderError("the pyav decoder needs PyAV, a dependency of craft-dsl that is missing here: "
+                              "pip install 'av>=12'")
         frames = _decode_pyav(target)
     else:
         frames = _decode_ffmpeg(target)

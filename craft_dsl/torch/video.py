@@ -13,17 +13,15 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import CraftError, MissingExtraError
+from ..errors import CraftError
 from ..render import frame_steps
 
 Size = int | tuple[int, int] | None
 
 
 def _av() -> Any:
-    try:
-        import av
-    except ImportError:
-        raise MissingExtraError("decoding videos", "torch", "PyAV") from None
+    import av  # a core dependency (it also encodes the videos)
+
     return av
 
 
