@@ -1,6 +1,6 @@
 """Where the time of ``craft-dsl generate`` goes, and how fast whole runs are.
 
-Run: ``python benchmarks/generate_speed.py [--videos 20] [--sections stages,runs,interrupt] [--baseline DIR]``.
+Run: ``python benchmarks/generate_speed.py [--videos 20] [--sections stages,runs,scaling,interrupt] [--baseline DIR]``.
 
 * ``stages``: ``--videos`` videos (scenes 1-20 in turn, the default settings) computed one after the other in this
   process by the pipeline's own :func:`~craft_dsl.dataset.instance.run_instance`, timed stage by stage
@@ -12,6 +12,8 @@ Run: ``python benchmarks/generate_speed.py [--videos 20] [--sections stages,runs
   ``--videos``: videos per minute, parallel efficiency, peak memory (from the run's log). With ``--baseline
   DIR`` (a checkout of an older craft_dsl, e.g. ``git worktree add /tmp/old <commit>``) the same 2-worker run of
   that version first, so the speed-up is a ratio measured in the same run.
+* ``scaling``: the same run with ``--workers`` 1, 2, 3, 4 (or the counts given): videos per minute and parallel
+  efficiency against one worker (on this 2-core machine, the counts above 2 show the curve flattening).
 * ``interrupt``: Ctrl-C (SIGINT to the process group) sent to 2-worker runs at random moments: seconds until
   the command exits, and its exit code.
 
@@ -179,6 +181,24 @@ def runs(size: int, baseline: str | None) -> None:
         print(f"new / baseline (2 workers): {two / rates['baseline, 2 workers']:.2f}x")
 
 
+def scaling(size: int, workers: list[int]) -> None:
+    """The scaling curve: the same run with each number of workers (parallel efficiency against one worker)."""
+    print(f"\nscaling: craft-dsl generate --size {size} with {', '.join(map(str, workers))} workers on "
+          f"{os.cpu_count()} cores; load before {load()}")
+    print("| workers | seconds | videos / min | parallel efficiency |")
+    print("|---|---|---|---|")
+    per_worker = 0.0  # videos/min per worker of the first (smallest) count
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in workers:
+            out = Path(tmp) / f"w{n}"
+            elapsed, _ = _generate(out, size, n, False)
+            rate = 60 * size / elapsed
+            per_worker = per_worker or rate / n
+            print(f"| {n} | {elapsed:.1f} | {rate:.0f} | {rate / (n * per_worker):.0%} |")
+            shutil.rmtree(out)
+    print(f"load after {load()}")
+
+
 # -- interruption --------------------------------------------------------------------------------------------------
 
 
@@ -207,15 +227,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--videos", type=int, default=20, help="videos of the stage breakdown (default 20)")
     parser.add_argument("--size", type=int, default=40, help="videos of each whole run (default 40)")
-    parser.add_argument("--sections", default="stages,runs,interrupt")
+    parser.add_argument("--sections", default="stages,runs,interrupt", help="any of stages, runs, scaling, interrupt")
     parser.add_argument("--baseline", help="a checkout of an older craft_dsl to compare whole runs with")
     parser.add_argument("--trials", type=int, default=6, help="Ctrl-C trials, with 1, 2, 3 workers in turn")
+    parser.add_argument("--workers", default="1,2,3,4", help="worker counts of the scaling section (default 1,2,3,4)")
     args = parser.parse_args()
     sections = set(args.sections.split(","))
     if "stages" in sections:
         stages(args.videos)
     if "runs" in sections:
         runs(args.size, args.baseline)
+    if "scaling" in sections:
+        scaling(args.size, sorted(int(w) for w in args.workers.split(",")))
     if "interrupt" in sections:
         interrupt(args.trials)
 
