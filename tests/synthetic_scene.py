@@ -53,3 +53,16 @@ def synthetic_simulation(steps: int = 600, world: WorldSpec | None = None) -> Si
     events = [Event(0, "Start", -1), Event(1, "End", steps)]
     return Simulation(objects, events, steps=steps, trajectory=traj, world=world,
                       meta={"source": "synthetic"})
+
+
+def simulation_from_rows(world: WorldSpec, positions: np.ndarray, angles: np.ndarray) -> Simulation:
+    """A Simulation that shows ``world`` along the given rows (positions [T+1, N, 2], angles [T+1, N], world order),
+    with zero velocities and only Start and End events: for rendering tests."""
+    steps = positions.shape[0] - 1
+    n = len(world.bodies)
+    traj = Trajectory(tuple(b.uid for b in world.bodies), positions, angles, np.zeros((steps + 1, n, 2)),
+                      np.zeros((steps + 1, n)))
+    objects = [SimObject(b.uid, b.shape, b.color, b.size, b.dynamic, ObjectState(b.position, b.angle),
+                         ObjectState(b.position, b.angle)) for b in world.bodies]
+    return Simulation(objects, [Event(0, "Start", -1), Event(1, "End", steps)], steps=steps, trajectory=traj,
+                      world=world)

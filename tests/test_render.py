@@ -11,7 +11,7 @@ import imageio_ffmpeg
 import numpy as np
 import pytest
 
-from craft_dsl import Event, ObjectState, SimObject, Simulation, Trajectory, load_simulation
+from craft_dsl import Simulation, load_simulation
 from craft_dsl.cli import main
 from craft_dsl.render import (
     RenderError,
@@ -26,7 +26,7 @@ from craft_dsl.render import (
 from craft_dsl.render.raster import SENSOR_GREY
 from craft_dsl.vocabulary import COLOR_RGB
 from craft_dsl.world import WorldSpec, assign_uids, make_dynamic, make_static
-from tests.synthetic_scene import synthetic_simulation
+from tests.synthetic_scene import simulation_from_rows, synthetic_simulation
 
 E1 = Path(__file__).parent / "data" / "e1.json"
 
@@ -34,15 +34,9 @@ E1 = Path(__file__).parent / "data" / "e1.json"
 def still_simulation(bodies: list, steps: int = 4, spin: float = 0.0) -> Simulation:
     """A simulation whose bodies stay where the world puts them (dynamic ones turn by ``spin`` rad/step)."""
     world = WorldSpec(bodies=assign_uids(bodies))
-    n = len(world.bodies)
     pos = np.array([[b.position for b in world.bodies]] * (steps + 1), dtype=np.float64)
     ang = np.array([[b.angle + (spin * t if b.dynamic else 0.0) for b in world.bodies] for t in range(steps + 1)])
-    traj = Trajectory(tuple(b.uid for b in world.bodies), pos, ang, np.zeros((steps + 1, n, 2)),
-                      np.zeros((steps + 1, n)))
-    objects = [SimObject(b.uid, b.shape, b.color, b.size, b.dynamic, ObjectState(b.position, b.angle),
-                         ObjectState(b.position, b.angle)) for b in world.bodies]
-    return Simulation(objects, [Event(0, "Start", -1), Event(1, "End", steps)], steps=steps, trajectory=traj,
-                      world=world)
+    return simulation_from_rows(world, pos, ang)
 
 
 def scene(*dynamic: object) -> list:

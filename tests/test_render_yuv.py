@@ -11,12 +11,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from craft_dsl import Event, ObjectState, SimObject, Simulation, Trajectory
+from craft_dsl import Simulation
 from craft_dsl.physics import simulate
 from craft_dsl.render import RenderError, frames, iter_frames, write_frames, write_video
 from craft_dsl.render.video import write_yuv420
 from craft_dsl.render.yuv import Yuv420Canvas, changed_tiles, iter_yuv420, rgb_to_yuv420
 from craft_dsl.world import WorldSpec, assign_uids, make_dynamic, make_static
+from tests.synthetic_scene import simulation_from_rows
 
 
 def planes(buffer: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -102,12 +103,7 @@ def wandering_simulation(seed: int, steps: int) -> Simulation:
             ang[t, i] = ang[t - 1, i] + (rng.normal(0, 0.5) if move else 0.0)
             if rng.random() < 0.1:
                 pos[t, i] = (rng.uniform(-40, 40), rng.uniform(-20, 60))  # jumps, often out of the picture
-    traj = Trajectory(tuple(b.uid for b in world.bodies), pos, ang, np.zeros((steps + 1, n, 2)),
-                      np.zeros((steps + 1, n)))
-    objects = [SimObject(b.uid, b.shape, b.color, b.size, b.dynamic, ObjectState(b.position, b.angle),
-                         ObjectState(b.position, b.angle)) for b in world.bodies]
-    return Simulation(objects, [Event(0, "Start", -1), Event(1, "End", steps)], steps=steps, trajectory=traj,
-                      world=world)
+    return simulation_from_rows(world, pos, ang)
 
 
 @settings(max_examples=15, deadline=None)
