@@ -39,9 +39,9 @@ def reference(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
-def _start(out: Path, workers: int) -> subprocess.Popen[str]:
+def _start(out: Path, workers: int, *extra: str) -> subprocess.Popen[str]:
     """``craft-dsl generate`` in a new process group (as a shell runs a foreground command)."""
-    cmd = [sys.executable, "-m", "craft_dsl", "generate", *ARGS, "--out", str(out), "--workers", str(workers),
+    cmd = [sys.executable, "-m", "craft_dsl", "generate", *ARGS, *extra, "--out", str(out), "--workers", str(workers),
            "--quiet"]
     return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
 
@@ -132,6 +132,32 @@ def test_sigkill_at_random_moments_then_resume(reference: Path, tmp_path: Path) 
     assert f"start: 6 videos, {before[0]} already done, {6 - before[0]} tasks" in run[0], (before, run)
     assert not any(f"merged scene {s} " in line for line in run for s in (1, 2, 3)[:before[1]]), run
     assert hashes(out) == hashes(reference)
+    assert not (out / WORK_FOLDER).exists() and not [p for p in out.rglob("*") if ".tmp" in p.name]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc to find the worker processes")
+def test_sigkill_with_videos_then_resume(tmp_path: Path) -> None:
+    """With --videos the media are encoded in the workers and written by the main process: killed runs resume
+    to the bytes of an uninterrupted run, videos included, with no temporary file left."""
+    reference = tmp_path / "reference"
+    P.generate_dataset(P.GenerationConfig.make(**CONFIG, videos=True), reference)
+    out = tmp_path / "run"
+    # killed while the first videos are encoded, then (resumed with one worker) as soon as scene 1 is merged
+    for attempt, (workers, mark, wait) in enumerate([(2, "start: 6 videos", 0.3), (1, "merged scene 1 ", 0.0)]):
+        proc = _start(out, workers, "--videos")
+        assert _wait_for_log(out, mark), proc.communicate()
+        time.sleep(wait)
+        children = _children(proc.pid)
+        proc.kill()
+        proc.wait(timeout=30)
+        _assert_gone(children)
+        if attempt == 0:
+            assert _finished_work(out)[0] < 6, "the run ended before it was killed"
+    proc = _start(out, 2, "--videos")
+    _stdout, stderr = proc.communicate(timeout=600)
+    assert proc.returncode == 0, stderr
+    assert hashes(out) == hashes(reference)
+    assert any(name.endswith(".mpg") for name in hashes(out))
     assert not (out / WORK_FOLDER).exists() and not [p for p in out.rglob("*") if ".tmp" in p.name]
 
 
