@@ -15,8 +15,9 @@ A shard holds, for the dataset-level merge (:mod:`craft_dsl.dataset.merge`), no 
   post-processed question its ``dataset.json`` record, its ``dataset_minimal.json`` record and its Hugging Face
   row, each already serialised exactly as the files hold them.
 
-The video is rendered and encoded in a background thread as soon as the factual run exists (the FFmpeg encoder
-is a separate process), so encoding overlaps the counterfactual and perturbed simulations.
+The video is rendered and encoded (PyAV, in this process) as soon as the factual run exists: in a background
+thread that overlaps the counterfactual and perturbed simulations where the machine has a core to spare, at once
+where every core has a worker (:attr:`InstanceTask.media_thread`).
 """
 
 from __future__ import annotations

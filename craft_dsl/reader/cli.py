@@ -120,6 +120,6 @@ def add_commands(sub: Any) -> None:
                    help="answer with the mode of each question's answer distribution and give its probability")
     p.add_argument("--samples", type=int, default=64, help="Monte Carlo readings of an answer distribution")
     p.add_argument("--decoder", choices=DECODERS, default="auto",
-                   help="video decoder: PyAV when installed (auto), or imageio-ffmpeg")
+                   help="video decoder: PyAV in-process (auto), or imageio-ffmpeg's ffmpeg process")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")
     p.set_defaults(func=cmd_read)

@@ -1,7 +1,7 @@
 """Decoding a CRAFT video into RGB frames, uint8 [T, H, W, 3].
 
-Two decoders, both shipping their own FFmpeg: PyAV (in-process; the ``reader`` and ``torch`` extras) and
-imageio-ffmpeg (a core dependency; an ``ffmpeg`` subprocess writing raw frames to a pipe). Measured on the same
+Two decoders, both shipping their own FFmpeg and both core dependencies: PyAV (in-process) and imageio-ffmpeg
+(an ``ffmpeg`` subprocess writing raw frames to a pipe). Measured on the same
 600-frame MPEG-1 videos (``benchmarks/reader.py --decoders``), PyAV is the faster on an idle machine and uses less
 CPU in all, so it is used when installed; on a busy machine the pipe, whose decoder runs in its own process, can be
 faster (docs/reader.md). Both decode single-threaded so that several videos can be read in parallel processes.
