@@ -160,8 +160,9 @@ class _MediaJob:
     def __init__(self, sim: Any, task: InstanceTask) -> None:
         self._files: tuple[tuple[str, bytes], ...] = ()
         self._error: BaseException | None = None
-        self._thread = threading.Thread(target=self._run, args=(sim, task), daemon=True)
+        self._thread: threading.Thread | None = None
         if task.media_thread:
+            self._thread = threading.Thread(target=self._run, args=(sim, task), daemon=True)
             self._thread.start()
         else:
             self._run(sim, task)
@@ -173,7 +174,7 @@ class _MediaJob:
             self._error = err
 
     def result(self) -> tuple[tuple[str, bytes], ...]:
-        if self._thread.is_alive():
+        if self._thread is not None:
             self._thread.join()
         if self._error is not None:
             raise self._error

@@ -8,6 +8,7 @@ only where a frame changed: measured on the same 600 frames, this costs a third 
 frames to an FFmpeg process (which converts every pixel of every frame). imageio-ffmpeg's bundled FFmpeg
 still makes the GIFs: well paletted (palettegen/paletteuse) in one pass.
 """
+
 from __future__ import annotations
 
 import itertools
@@ -87,19 +88,14 @@ def _checked(frames: Iterable[np.ndarray], size: int) -> Iterator[np.ndarray]:
 
 
 def _frames_to_yuv420(frames: Iterable[np.ndarray], size: int, chunk: int = 60) -> Iterator[np.ndarray]:
+    """The frames as yuv420p buffers, ``chunk`` frames compared and converted at a time."""
     canvas = Yuv420Canvas(size, size)
     previous: np.ndarray | None = None
-    batch: list[np.ndarray] = []
-    for img in itertools.chain(_checked(frames, size), [None]):
-        if img is not None:
-            batch.append(img)
-            if len(batch) < chunk:
-                continue
-        if not batch:
-            break
+    checked = _checked(frames, size)
+    while batch := list(itertools.islice(checked, chunk)):
         rgb = np.stack(batch)
         yield from canvas.frames(rgb, changed_tiles(rgb, previous, canvas.tile))
-        previous, batch = rgb[-1], []
+        previous = rgb[-1]
 
 
 def write_yuv420(planes: Iterable[np.ndarray], path: str | os.PathLike[str], fps: float = SIM_FPS,
