@@ -80,14 +80,12 @@ def changed_tiles(frames: np.ndarray, previous: np.ndarray | None, tile: int) ->
     out = np.empty((n, h // tile, w // tile), dtype=bool)
     if n == 0:
         return out
-    before = frames[:-1] if previous is None else np.concatenate([previous[None], frames[:-1]])
-    diff = (frames[1:] != before) if previous is None else (frames != before)
-    grid = diff.reshape(diff.shape[0], h // tile, tile, w // tile, tile * 3).any(axis=(2, 4))
-    if previous is None:
-        out[0] = True
-        out[1:] = grid
-    else:
-        out[:] = grid
+
+    def grid(diff: np.ndarray) -> np.ndarray:
+        return np.asarray(diff.reshape(-1, h // tile, tile, w // tile, tile * 3).any(axis=(2, 4)))
+
+    out[0] = True if previous is None else grid(frames[0] != previous)[0]
+    out[1:] = grid(frames[1:] != frames[:-1])
     return out
 
 
