@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import site
 import subprocess
 import sys
+import sysconfig
 import venv
 from pathlib import Path
 
@@ -22,12 +24,41 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     if build.returncode != 0:
         pytest.fail(f"building the wheel failed:\n{build.stderr[-2000:]}")
     env = base / "venv"
-    venv.EnvBuilder(system_site_packages=True, with_pip=True).create(env)
+    venv.EnvBuilder(with_pip=True).create(env)
     python = env / "bin" / "python"
+    _see_surrounding_packages(python)
     wheel = next((base / "dist").glob("craft_dsl-*.whl"))
     subprocess.run([str(python), "-m", "pip", "install", "-q", "--no-deps", str(wheel)], check=True,
                    capture_output=True)
     return env
+
+
+def surrounding_site_dirs() -> list[str]:
+    """The site-packages folders of the interpreter running the tests, whether it is a venv or a system one.
+
+    ``system_site_packages=True`` would show the *base* interpreter's packages, which from inside a venv are
+    not the ones the tests run with."""
+    dirs = [sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"], *site.getsitepackages()]
+    if site.ENABLE_USER_SITE:
+        dirs.append(site.getusersitepackages())
+    return list(dict.fromkeys(d for d in dirs if Path(d).is_dir()))
+
+
+def _see_surrounding_packages(python: Path) -> None:
+    """Append the surrounding site folders to the new venv's path with a ``.pth`` file.
+
+    The venv's own site-packages stays first, so the installed wheel shadows the checkout's editable install; the
+    editable install's own ``.pth`` in the surrounding folder is not processed (a path line in a ``.pth`` file adds
+    the folder, not its ``.pth`` files), so the checkout is never imported by mistake."""
+    purelib = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                             capture_output=True, text=True, check=True).stdout.strip()
+    Path(purelib, "_surrounding_packages.pth").write_text("".join(d + "\n" for d in surrounding_site_dirs()))
+
+
+def test_surrounding_packages_are_found_from_any_interpreter(installed: Path, tmp_path: Path) -> None:
+    """The venv imports the test environment's dependencies, whether the tests run in a venv or not."""
+    res = _run(installed, "python", "-c", "import pymunk, numpy, lark, pydantic, networkx; print('ok')", cwd=tmp_path)
+    assert res.returncode == 0 and res.stdout.strip() == "ok", res.stderr
 
 
 def _run(env: Path, *args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
