@@ -48,11 +48,12 @@ def add_commands(sub: Any) -> None:
         "ask", help="answer a CRAFT question in words (the question's template program, run on a simulation)",
         description="Read a CRAFT question (any template, paraphrase and synonym), bind its parameters, run its "
                     "program on a recorded or live simulation and print the answer in words.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     ask.add_argument("question", help='the question, e.g. "How many objects fall to the ground?"')
-    ask.add_argument("--sim", help="recorded simulation JSON file (CRAFT format)")
-    ask.add_argument("--scene", type=parse_scene, help="or simulate this scene layout (1-20 or a layout file) live")
+    ask.add_argument("--sim", help="recorded simulation JSON file (CRAFT format) (default: none: give --sim or "
+                                   "--scene, or --program-only)")
+    ask.add_argument("--scene", type=parse_scene,
+                     help="or simulate this scene layout (1-20 or a layout file) live (default: none)")
     ask.add_argument("--seed", type=int, default=0, help="seed of the live simulation")
     ask.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES,
                      help="physics engine of the live simulation")

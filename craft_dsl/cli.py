@@ -117,11 +117,41 @@ def cmd_modules(args: argparse.Namespace) -> int:
     return 0
 
 
+class HelpFormatter(argparse.HelpFormatter):
+    """Every option's help shows its default: ``(default: VALUE)`` is appended to the help of an option that takes
+    a value, unless the help already speaks of its default (``(default 600 = 10 s)``, ``(default: stdout)``).
+    Left alone: flags (``store_true`` and the like: off unless given), required options, and options whose default
+    is None or empty, whose help says in words what happens without them (tests/test_cli_help.py checks it)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        if "%(default)" in text or "default" in text.lower() or not action.option_strings or action.nargs == 0 \
+                or action.required or action.default in (None, argparse.SUPPRESS) or action.default == []:
+            return action.help
+        return f"{text} (default: %(default)s)"
+
+
+class DeprecatedAlias(argparse.Action):
+    """An old name of an option, still accepted, hidden from ``--help``: using it prints
+    ``warning: --OLD is deprecated; use --NEW`` on stderr and sets the new option's value."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str, replacement: str, **kwargs: Any) -> None:
+        kwargs.setdefault("help", argparse.SUPPRESS)
+        kwargs.setdefault("default", argparse.SUPPRESS)  # the new option's default stands
+        super().__init__(option_strings, dest, **kwargs)
+        self.replacement = replacement
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        print(f"warning: {option_string} is deprecated; use {self.replacement}", file=sys.stderr)
+        setattr(namespace, self.dest, values)
+
+
 class _CommandParser(argparse.ArgumentParser):
-    """Every command's parser shows its defaults in --help."""
+    """Every command's parser shows its defaults in --help (:class:`HelpFormatter`)."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
-        kwargs.setdefault("formatter_class", argparse.ArgumentDefaultsHelpFormatter)
+        kwargs.setdefault("formatter_class", HelpFormatter)
         super().__init__(*args, **kwargs)
 
 
@@ -134,14 +164,17 @@ def build_parser() -> argparse.ArgumentParser:
 
     run = sub.add_parser("run", help="run a program over a recorded simulation")
     run.add_argument("program", nargs="?", help="program text, or @file")
-    run.add_argument("--sim", help="recorded simulation JSON file (CRAFT format)")
-    run.add_argument("--scene", type=parse_scene, help="or simulate this scene layout (1-20 or a layout file) live")
+    run.add_argument("--sim", help="recorded simulation JSON file (CRAFT format) (default: none: give --sim or "
+                                   "--scene)")
+    run.add_argument("--scene", type=parse_scene,
+                     help="or simulate this scene layout (1-20 or a layout file) live (default: none)")
     run.add_argument("--seed", type=int, default=0, help="seed of the live simulation (default 0)")
     run.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES,
                      help="physics engine of the live simulation (default pymunk)")
-    run.add_argument("--nodes", help="read the program as a CLEVR/CRAFT node list from this JSON file")
+    run.add_argument("--nodes", help="read the program as a CLEVR/CRAFT node list from this JSON file "
+                                     "(default: none, the PROGRAM argument)")
     run.add_argument("--param", action="append", default=[], metavar="<Z>=small",
-                     help="bind a template placeholder of a node list (repeatable)")
+                     help="bind a template placeholder of a node list (repeatable; default: none)")
     run.add_argument("--strict", action="store_true",
                      help="also refuse a --sim file the original simulator could not have written (docs/recorded.md)")
     run.add_argument("--json", action="store_true", help="print JSON")
@@ -150,8 +183,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="type-check a program; print its canonical form and type")
     check.add_argument("program", nargs="?", help="program text, or @file")
-    check.add_argument("--nodes", help="read the program as a node list from this JSON file")
-    check.add_argument("--param", action="append", default=[], metavar="<Z>=small")
+    check.add_argument("--nodes", help="read the program as a node list from this JSON file "
+                                       "(default: none, the PROGRAM argument)")
+    check.add_argument("--param", action="append", default=[], metavar="<Z>=small",
+                       help="bind a template placeholder of a node list (repeatable; default: none)")
     check.add_argument("--json", action="store_true", help="print JSON (with the node list)")
     check.set_defaults(func=cmd_check)
 

@@ -46,5 +46,5 @@ def add_commands(sub: Any) -> None:
     demo.add_argument("--scene", type=int, default=1, help="scene layout 1-20 (default 1)")
     demo.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     demo.add_argument("--json", action="store_true", help="print JSON")
-    demo.add_argument("--save", metavar="FILE", help="also write the simulation with variations (JSON)")
+    demo.add_argument("--save", metavar="FILE", help="also write the simulation with variations (JSON) (default: none)")
     demo.set_defaults(func=cmd_demo)

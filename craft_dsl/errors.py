@@ -104,13 +104,21 @@ class TokenError(ProgramError):
 
 
 class MissingExtraError(CraftError, ModuleNotFoundError):
-    """A feature needs an optional extra that is not installed; the message names the ``pip install`` to run."""
+    """A feature needs an optional extra that is not installed; the message names the ``pip install`` to run.
 
-    def __init__(self, feature: str, extra: str, missing: str | None = None) -> None:
+    ``feature`` needs ``missing`` (the library, default: the extra's name), which the extra ``extra`` installs;
+    ``alternative`` (e.g. ``"or use --no-charts"``) is added in parentheses."""
+
+    def __init__(self, feature: str, extra: str, missing: str | None = None, alternative: str = "") -> None:
         super().__init__(
-            f"{feature} needs {missing or extra}, which is not installed: pip install 'craft-dsl[{extra}]'")
+            f"{feature} needs {missing or extra}, which is not installed: pip install 'craft-dsl[{extra}]'"
+            + (f" ({alternative})" if alternative else ""))
         self.name = missing
         self.extra = extra
+        self._fields = (feature, extra, missing, alternative)
+
+    def __reduce__(self) -> tuple[Any, ...]:  # raised in a worker process, it crosses back pickled
+        return (type(self), self._fields)
 
 
 class InputFileError(CraftError):

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from ..atomic import atomic_path
-from ..errors import CraftError
+from ..errors import MissingExtraError
 from .stats import BASELINES, COLUMNS, EVENT_TYPES, Table
 
 #: Colours of the answer types (as the original's charts grouped them).
@@ -25,7 +25,8 @@ def _pyplot() -> Any:
     try:
         import matplotlib
     except ImportError:
-        raise CraftError("charts need matplotlib: pip install 'craft-dsl[stats]' (or use --no-charts)") from None
+        raise MissingExtraError("drawing the charts", "stats", "matplotlib", "or write the CSV tables only: "
+                                "--no-charts") from None
     matplotlib.use("Agg")
     matplotlib.rcParams["svg.hashsalt"] = "craft-dsl"
     import matplotlib.pyplot as plt

@@ -12,6 +12,7 @@ import time
 from typing import Any
 
 from ..errors import CraftError
+from ..parallel import add_workers_option
 from ..ranges import parse_ranges, parse_scenes
 
 #: Frame rates ``--downsampled`` accepts (the videos run at 60 frames per second).
@@ -59,6 +60,10 @@ def cmd_generate(args: argparse.Namespace) -> int:
     config = GenerationConfig.make(**fields)
     if args.scheduler and args.executor != "dask":
         raise CraftError("--scheduler is for --executor dask")
+    if args.executor == "local":
+        from ..physics.live import get_engine
+
+        get_engine(config.engine)  # a missing extra (box2d): one line naming its pip install, not one per video
     executor = make_executor(args.executor, config.workers, args.scheduler)
 
     bars = _Bars() if not args.quiet and sys.stderr.isatty() else None
@@ -118,13 +123,12 @@ def add_commands(sub: Any) -> None:
     gen.add_argument("--out", required=True, help="output folder")
     gen.add_argument("--scenes", help="scene ids, ranges and layout files, e.g. 1,2,5-7 or 1-4,my_layouts/ramp.json "
                                       "(default: all, 1-20); a layout's records use its own \"scene\" id")
-    gen.add_argument("--workers", type=int, default=1,
-                     help="local worker processes (default 1); the output is identical for any number")
+    add_workers_option(gen, "local worker processes; the output is identical for any number")
     gen.add_argument("--executor", default="local", choices=("local", "dask"),
-                     help="where videos are computed: local processes (default) or a Dask cluster (needs the dask "
-                          "extra and --scheduler); the output is identical")
+                     help="where videos are computed: local processes (default) or a Dask cluster (needs "
+                          "--scheduler and pip install 'craft-dsl[dask]'); the output is identical")
     gen.add_argument("--scheduler", metavar="tcp://HOST:PORT",
-                     help="with --executor dask: the address of the Dask scheduler")
+                     help="with --executor dask: the address of the Dask scheduler (default: none)")
     gen.add_argument("--force", action="store_true",
                      help="run in a folder made with other settings: start over (or only add media when just "
                           "--videos/--downsampled differ)")
@@ -138,7 +142,7 @@ def add_commands(sub: Any) -> None:
                      help="mpg: MPEG-1 as the published CRAFT dataset (default); mp4: H.264 for modern loaders")
     gen.add_argument("--downsampled", metavar="FPS",
                      help="with --videos, also write H.264 videos at these frame rates (1-60), e.g. 5,10 "
-                          "(downsampled/<fps>-fps/, as the published models read them)")
+                          "(downsampled/<fps>-fps/, as the published models read them; default: none)")
     gen.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"), help="physics engine")
     gen.add_argument("--templates", help="comma-separated template ids (default: all 67)")
     gen.add_argument("--no-balance", action="store_true",

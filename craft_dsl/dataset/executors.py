@@ -25,7 +25,8 @@ from collections.abc import Callable, Iterable
 from multiprocessing.connection import Connection, wait
 from typing import Any, Protocol
 
-from ..errors import CraftError
+from ..errors import CraftError, MissingExtraError
+from ..parallel import usable_cpu_count
 from .instance import InstanceResult, InstanceTask, run_instance
 
 OnResult = Callable[[InstanceResult], None]
@@ -125,7 +126,7 @@ class LocalExecutor:
             raise CraftError(f"--workers {workers}: give at least 1")
         self.workers = workers
         self.in_process = workers == 1 if in_process is None else in_process
-        self.spare_cores = workers < (os.cpu_count() or 1)
+        self.spare_cores = workers < usable_cpu_count()
         self.description = "this process" if self.in_process else \
             f"{workers} local worker process{'es' if workers > 1 else ''}"
 
@@ -209,8 +210,7 @@ class DaskExecutor:
         try:
             import distributed
         except ImportError:
-            raise CraftError("--executor dask needs Dask's distributed scheduler: pip install 'craft-dsl[dask]'") \
-                from None
+            raise MissingExtraError("--executor dask", "dask", "Dask's distributed scheduler") from None
         self._distributed = distributed
         self._scheduler = scheduler
         self._timeout = timeout

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from ..atomic import atomic_path
-from ..errors import CraftError
+from ..errors import CraftError, MissingExtraError
 from .folder import PARTS, SPLITS, DatasetFolder
 from .layout import frame_relpath
 
@@ -156,14 +156,15 @@ def _write_parquet(items: Sequence[Mapping[str, Any]], path: Path) -> None:
 def write_hf(root: str | os.PathLike[str], parquet: bool | None = None, card: bool = True) -> HfResult:
     """Write the JSONL (and Parquet) files of both splits and the dataset card into the folder ``root``.
 
-    ``parquet``: ``None`` writes Parquet when pyarrow is installed; ``True`` requires it (a :class:`CraftError`
-    says how to install it); ``False`` writes JSONL only. The card points at the Parquet files when written.
+    ``parquet``: ``None`` writes Parquet when pyarrow is installed; ``True`` requires it (a
+    :class:`~craft_dsl.errors.MissingExtraError` says how to install it); ``False`` writes JSONL only. The card
+    points at the Parquet files when written.
     """
     folder = DatasetFolder(root)
     if parquet is None:
         parquet = _have_pyarrow()
     elif parquet and not _have_pyarrow():
-        raise CraftError("Parquet files need pyarrow: pip install 'craft-dsl[hf]' (or write JSONL only)")
+        raise MissingExtraError("writing Parquet files", "hf", "pyarrow", "or write JSONL only: --no-parquet")
     all_rows = rows(folder)
     files: list[str] = []
     counts: dict[str, dict[str, int]] = {}

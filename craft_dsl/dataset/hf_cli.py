@@ -23,9 +23,17 @@ def cmd_hf(args: argparse.Namespace) -> int:
         for split, parts in result.counts.items():
             print(f"{split}: " + ", ".join(f"{part} {n}" for part, n in parts.items()))
         print(f"load it: datasets.load_dataset({str(args.dataset)!r}, 'random')")
-    print(f"wrote {len(result.files)} files" + ("" if result.parquet else " (JSONL only: no pyarrow)"),
-          file=sys.stderr)
+    print(f"wrote {len(result.files)} files" + _jsonl_only_note(result.parquet, args.no_parquet), file=sys.stderr)
     return 0
+
+
+def _jsonl_only_note(parquet: bool, no_parquet: bool) -> str:
+    """Why no Parquet file was written, and how to get them."""
+    if parquet:
+        return ""
+    if no_parquet:
+        return " (JSONL only, as asked)"
+    return " (JSONL only: no pyarrow; pip install 'craft-dsl[hf]' adds Parquet)"
 
 
 def add_commands(sub: Any) -> None:
@@ -35,7 +43,9 @@ def add_commands(sub: Any) -> None:
                                    "loads the folder offline (docs/dataset-users.md).")
     p.add_argument("dataset", help="dataset folder (holds dataset_minimal.json, dataset.json, split_info_*.json)")
     group = p.add_mutually_exclusive_group()
-    group.add_argument("--parquet", action="store_true", help="require Parquet (needs pyarrow: the hf extra)")
+    group.add_argument("--parquet", action="store_true",
+                       help="require Parquet (needs pyarrow: pip install 'craft-dsl[hf]'); without --parquet or "
+                            "--no-parquet: Parquet when pyarrow is installed")
     group.add_argument("--no-parquet", action="store_true", help="JSONL only")
     p.add_argument("--json", action="store_true", help="print what was written as JSON")
     p.set_defaults(func=cmd_hf)

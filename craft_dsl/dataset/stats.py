@@ -227,14 +227,17 @@ def all_tables(folder: DatasetFolder) -> list[Table]:
 
 def format_baselines(table: Table) -> str:
     """The baseline table as aligned text (``ours / paper`` per column)."""
-    lines = [f"{'split':<7} {'baseline':<10} " + " ".join(f"{c:>13}" for c in COLUMNS) + "  test questions",
-             f"{'':<7} {'':<10} " + " ".join(f"{'ours / paper':>13}" for _ in COLUMNS)]
+    # the label columns are as wide as their longest label (never cut)
+    ws = max([7, *(len(str(row[0])) for row in table.rows)])
+    wb = max([10, *(len(str(row[1])) for row in table.rows)])
+    lines = [f"{'split':<{ws}} {'baseline':<{wb}} " + " ".join(f"{c:>13}" for c in COLUMNS) + "  test questions",
+             f"{'':<{ws}} {'':<{wb}} " + " ".join(f"{'ours / paper':>13}" for _ in COLUMNS)]
     for row in table.rows:
         split, name, *rest = row
         ours, n, paper = rest[:4], rest[4], rest[5:]
         cells = " ".join(f"{'-' if o is None else f'{o:.1f}':>6} / {p:>4.1f}" for o, p in zip(ours, paper,
                                                                                                  strict=True))
-        lines.append(f"{split:<7} {name:<10} {cells}  {n}")
+        lines.append(f"{split:<{ws}} {name:<{wb}} {cells}  {n}")
     return "\n".join(lines)
 
 

@@ -49,6 +49,7 @@ def add_commands(sub: Any) -> None:
                                    "and as PNG/SVG charts (docs/dataset-users.md).")
     p.add_argument("dataset", help="dataset folder (holds dataset_minimal.json, split_info_*.json, annotations.json)")
     p.add_argument("--out", help="output folder (default: DATASET/stats)")
-    p.add_argument("--no-charts", action="store_true", help="CSV only (charts need matplotlib: the stats extra)")
+    p.add_argument("--no-charts", action="store_true", help="CSV only (the charts need matplotlib: pip install "
+                                                          "'craft-dsl[stats]')")
     p.add_argument("--json", action="store_true", help="print every table as JSON")
     p.set_defaults(func=cmd_stats)

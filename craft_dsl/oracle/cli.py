@@ -123,9 +123,8 @@ def _token_style(p: argparse.ArgumentParser) -> None:
 
 def add_commands(sub: Any) -> None:
     """Register ``evaluate``, ``vocab`` and ``export-pairs``."""
-    fmt = argparse.ArgumentDefaultsHelpFormatter
     ev = sub.add_parser(
-        "evaluate", formatter_class=fmt,
+        "evaluate",
         help="evaluate predicted answers, programs (text, node lists, tokens), traces and answer distributions",
         description="Run each predicted program on the true simulation and say exactly where predictions go wrong: "
                     "program validity, exact program match, execution accuracy, answer accuracy, trace agreement "
@@ -134,7 +133,8 @@ def add_commands(sub: Any) -> None:
                     help="dataset.json (with programs), or the folder holding it and annotations.json")
     ev.add_argument("--predictions", required=True, help="predictions .json or .jsonl (see docs/oracle.md)")
     ev.add_argument("--annotations", help="annotations.json or a folder of <id6>.json (default: beside dataset.json)")
-    ev.add_argument("--split", help="split_info_random.json or split_info_hard.json: evaluate one part only")
+    ev.add_argument("--split", help="split_info_random.json or split_info_hard.json: evaluate one part only "
+                                    "(default: none, every question)")
     ev.add_argument("--part", help="part of the split (train, validation, test; default test)")
     ev.add_argument("--token-order", choices=("prefix", "postfix"), default="prefix",
                     help="how token lists without a program_format are read")
@@ -146,18 +146,18 @@ def add_commands(sub: Any) -> None:
     ev.add_argument("--quiet", action="store_true", help="no progress bar")
     ev.set_defaults(func=cmd_evaluate)
 
-    vo = sub.add_parser("vocab", formatter_class=fmt,
+    vo = sub.add_parser("vocab",
                         help="write the token vocabularies (program, question, answer) a parser trains against")
     vo.add_argument("--out", help="write to this JSON file (default: print)")
     _token_style(vo)
     vo.set_defaults(func=cmd_vocab)
 
-    ex = sub.add_parser("export-pairs", formatter_class=fmt,
+    ex = sub.add_parser("export-pairs",
                         help="write (question, program tokens) pairs as JSON Lines for training semantic parsers")
     ex.add_argument("--dataset", required=True, help="dataset.json, or the folder holding it")
     ex.add_argument("--out", required=True, help="output .jsonl file")
     ex.add_argument("--order", choices=("prefix", "postfix"), default="prefix", help="token order")
-    ex.add_argument("--split", help="split file: export one part only")
+    ex.add_argument("--split", help="split file: export one part only (default: none, every question)")
     ex.add_argument("--part", help="part of the split (default train)")
     _token_style(ex)
     ex.set_defaults(func=cmd_export_pairs)

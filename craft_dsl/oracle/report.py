@@ -18,8 +18,13 @@ def _pct(x: float | None) -> str:
     return "-" if x is None else f"{x:.2f}"
 
 
-def _row(name: str, m: Metrics, shown: list[tuple[str, str]]) -> str:
-    return f"{name:<24} {m.questions:>9}" + "".join(f"{_pct(getattr(m, attr)):>10}" for _, attr in shown)
+def _row(name: str, m: Metrics, shown: list[tuple[str, str]], width: int = 24) -> str:
+    return f"{name:<{width}} {m.questions:>9}" + "".join(f"{_pct(getattr(m, attr)):>10}" for _, attr in shown)
+
+
+def _width(header: str, labels: list[str], least: int) -> int:
+    """The width of a label column: its longest label or header (at least ``least``), so that none is cut."""
+    return max([least, len(header), *(len(x) for x in labels)])
 
 
 def _failure(r: QuestionResult) -> str | None:
@@ -56,21 +61,25 @@ def format_report(report: EvaluationReport, per_template: bool, failures: int) -
     shown = [(label, attr) for label, attr in _COLUMNS
              if (attr not in ("validity", "exact_match_rate", "execution_accuracy") or m.programs)
              and (attr != "answer_accuracy" or m.answers) and (attr != "trace_agreement" or m.traces)]
+    groups = report.groups()
+    w = _width("group", [name for name, _ in groups], 24)
     lines += ["", "rates over all questions of a group (trace %: over the compared nodes)",
-              f"{'group':<24} {'questions':>9}" + "".join(f"{label:>10}" for label, _ in shown)]
-    lines += [_row(name, g, shown) for name, g in report.groups()]
+              f"{'group':<{w}} {'questions':>9}" + "".join(f"{label:>10}" for label, _ in shown)]
+    lines += [_row(name, g, shown, w) for name, g in groups]
     if per_template:
-        lines += ["", f"{'template':<24} {'questions':>9}" + "".join(f"{label:>10}" for label, _ in shown)]
-        lines += [_row(f"{t} {category_of(t)}", report.per_template[t], shown)
-                  for t in templates() if t in report.per_template]
+        rows = [(f"{t} {category_of(t)}", report.per_template[t]) for t in templates() if t in report.per_template]
+        w = _width("template", [name for name, _ in rows], 24)
+        lines += ["", f"{'template':<{w}} {'questions':>9}" + "".join(f"{label:>10}" for label, _ in shown)]
+        lines += [_row(name, m, shown, w) for name, m in rows]
     if m.distributions:
         lines += ["", f"answer distributions ({m.distributions} questions): mode accuracy {_pct(m.mode_accuracy)} %, "
                       f"mean log-likelihood of the recorded answer {m.mean_log_likelihood:.4f}, "
                       f"mean Brier score {m.mean_brier:.4f}"]
     if report.per_module:
-        lines += ["", f"{'trace: module':<30} {'compared':>9} {'agree %':>9}"]
+        w = _width("trace: module", list(report.per_module), 30)
+        lines += ["", f"{'trace: module':<{w}} {'compared':>9} {'agree %':>9}"]
         for module, (compared, agreed) in sorted(report.per_module.items()):
-            lines.append(f"{module:<30} {compared:>9} {_pct(100.0 * agreed / compared if compared else None):>9}")
+            lines.append(f"{module:<{w}} {compared:>9} {_pct(100.0 * agreed / compared if compared else None):>9}")
     found = [f for f in (_failure(r) for r in report.results) if f]
     if found and failures:
         lines += ["", f"first problems ({min(failures, len(found))} of {len(found)}):"]

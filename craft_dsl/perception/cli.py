@@ -114,11 +114,12 @@ def cmd_fit(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(out, indent=2))
         return 0
-    print(f"{'id':>3}  {'body':<16} {'x m':>8} {'y m':>8} {'vx m/s':>8} {'vy m/s':>8}  {'drift px mean/max/end':>22}"
+    wb = max([16, *(len(f"{b['size']} {b['shape']}") for b in bodies)])  # as wide as the longest label
+    print(f"{'id':>3}  {'body':<{wb}} {'x m':>8} {'y m':>8} {'vx m/s':>8} {'vy m/s':>8}  {'drift px mean/max/end':>22}"
           "  first step > 1 px")
     for b in bodies:
         d = b["drift_px"]
-        print(f"{b['id']:>3}  {b['size'] + ' ' + b['shape']:<16} {b['position_m'][0]:8.3f} {b['position_m'][1]:8.3f} "
+        print(f"{b['id']:>3}  {b['size'] + ' ' + b['shape']:<{wb}} {b['position_m'][0]:8.3f} {b['position_m'][1]:8.3f} "
               f"{b['velocity_m_s'][0]:8.3f} {b['velocity_m_s'][1]:8.3f}  "
               f"{d['mean']:6.2f} / {d['max']:6.2f} / {d['final']:6.2f}  {d['first_step_over_1px'] or '-'}")
     for k, v in pw.left_out.items():
@@ -147,9 +148,10 @@ def cmd_run(args: argparse.Namespace) -> int:
             se = dist.method == "monte_carlo"
             print(f"mode: {dist.mode}  ({dist.method}, {dist.samples} readings"
                   + (f"; {dist.invalid:.3f} of them had no answer" if dist.invalid else "") + ")")
+            w = max([12, *(len(str(dist.answers[key])) for key in dist.probabilities)])
             for key, p in dist.probabilities.items():
                 err = f" +- {dist.standard_errors[key]:.3f}" if se else ""
-                print(f"  {dist.answers[key]!s:<12} {p:.4f}{err}")
+                print(f"  {dist.answers[key]!s:<{w}} {p:.4f}{err}")
         return 0
     answer = program.run(model.simulation())
     if args.json:
@@ -173,12 +175,14 @@ def cmd_answer(args: argparse.Namespace) -> int:
         _write(text, args.out)
         return 0
     lines = []
+    wq = max([18, *(len(str(a.item.template_id or a.item.index)) for a in answered)])  # never cut a label
+    wa = max([10, *(len(str(a.answer)) for a in answered)])
     for a in answered:
         mark = "" if a.correct is None else ("  ok" if a.correct else f"  WRONG (truth {a.item.truth})")
         dist = ""
         if a.distribution is not None:
             dist = f"  [mode {a.distribution.mode}, p={a.distribution.p(a.distribution.mode):.2f}]"
-        lines.append(f"{a.item.template_id or a.item.index!s:<18} {a.answer!s:<10}{dist}{mark}")
+        lines.append(f"{a.item.template_id or a.item.index!s:<{wq}} {a.answer!s:<{wa}}{dist}{mark}")
     for family, row in summary.items():
         extra = f", mode of the distribution {row['mode']:.3f}" if "mode" in row else ""
         lines.append(f"{family}: {int(row['questions'])} questions, most likely world {row['most_likely']:.3f}{extra}")
@@ -224,10 +228,13 @@ def add_commands(sub: Any) -> None:
     cmds = perceive.add_subparsers(dest="perceive_command", required=True, metavar="COMMAND")
 
     export = cmds.add_parser("export", help="the ground-truth perceived scene of a simulation")
-    export.add_argument("--scene", type=parse_scene, help="simulate this scene layout (1-20 or a layout file) live")
+    export.add_argument("--scene", type=parse_scene,
+                        help="simulate this scene layout (1-20 or a layout file) live (default: none: give --scene "
+                             "or --sim)")
     export.add_argument("--seed", type=int, default=0, help="seed of the live simulation (default 0)")
     export.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES, help="physics engine")
-    export.add_argument("--sim", help="or a recorded simulation JSON file (no tracks: start/end states only)")
+    export.add_argument("--sim", help="or a recorded simulation JSON file (no tracks: start/end states only; "
+                                      "default: none)")
     export.add_argument("--fps", type=float, default=60, help="frame rate of the video and tracks (default 60)")
     export.add_argument("--size", type=int, default=256, help="video size in pixels (default 256)")
     export.add_argument("--no-velocities", action="store_true", help="tracks without velocities (positions only)")
@@ -249,7 +256,8 @@ def add_commands(sub: Any) -> None:
     noise.add_argument("--swaps", type=float, default=0.0, help="expected identity swaps per video (default 0)")
     noise.add_argument("--gaps", type=float, default=0.0, help="expected gaps per track (default 0)")
     noise.add_argument("--keep-velocities", action="store_true", help="keep the tracks' velocities")
-    noise.add_argument("--track-fps", type=float, help="subsample the tracks to this frame rate")
+    noise.add_argument("--track-fps", type=float,
+                       help="subsample the tracks to this frame rate (default: none, every frame kept)")
     noise.add_argument("--out", help="output file (default stdout)")
     noise.set_defaults(func=cmd_noise)
 
@@ -266,9 +274,10 @@ def add_commands(sub: Any) -> None:
 
     run = cmds.add_parser("run", help="run a program over a perceived scene")
     run.add_argument("program", nargs="?", help="program text, or @file")
-    run.add_argument("--nodes", help="read the program as a CLEVR/CRAFT node list from this JSON file")
+    run.add_argument("--nodes", help="read the program as a CLEVR/CRAFT node list from this JSON file "
+                                     "(default: none, the PROGRAM argument)")
     run.add_argument("--param", action="append", default=[], metavar="<Z>=small",
-                     help="bind a template placeholder of a node list (repeatable)")
+                     help="bind a template placeholder of a node list (repeatable; default: none)")
     _execution_args(run)
     _distribution_args(run)
     run.set_defaults(func=cmd_run)
@@ -277,7 +286,9 @@ def add_commands(sub: Any) -> None:
                                             "perceived scene")
     answer.add_argument("--questions", help="question records with programs (generate_questions output) or a CRAFT "
                                             "dataset.json; default: the first instance of each of the 48 templates")
-    answer.add_argument("--video-index", type=int, help="the video of a multi-video question file")
+    answer.add_argument("--video-index", type=int,
+                        help="the video of a multi-video question file (default: none: every record of a question "
+                             "list; a dataset.json must then hold one video)")
     answer.add_argument("--out", help="output file (default stdout)")
     _execution_args(answer)
     _distribution_args(answer)

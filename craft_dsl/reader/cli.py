@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..atomic import atomic_path, write_json_atomic
 from ..errors import CraftError, ReaderError
+from ..parallel import add_workers_option
 from .video import DECODERS
 
 if TYPE_CHECKING:
@@ -53,17 +54,18 @@ def cmd_read(args: argparse.Namespace) -> int:
     if args.workers < 1:
         raise ReaderError(f"--workers must be at least 1, got {args.workers}")
     jobs = [(str(videos[v]), by_video[v], args.decoder, args.distribution, args.samples) for v in sorted(by_video)]
+    workers = min(args.workers, len(jobs))  # no process without a video to read
     results: list[dict[str, Any]] = []
     from tqdm import tqdm
 
     bar = tqdm(total=len(jobs), unit="video", desc="reading", disable=args.quiet, file=sys.stderr)
     try:
-        if args.workers == 1:
+        if workers <= 1:
             for job in jobs:
                 results.append(read_video(*job))
                 bar.update(1)
-        else:
-            with ProcessPoolExecutor(max_workers=args.workers) as pool:
+        else:  # results in the videos' order, whatever the order they finish in: the same files for any --workers
+            with ProcessPoolExecutor(max_workers=workers) as pool:
                 for result in pool.map(read_video, *zip(*jobs)):
                     results.append(result)
                     bar.update(1)
@@ -108,14 +110,14 @@ def add_commands(sub: Any) -> None:
         description="Perceive each video (layout, statics, objects, the simulation that reproduces it), read each "
                     "question's program from its text and answer it. Reads only the video files and the question "
                     "texts (video_index, question_index, question of each record).",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     p.add_argument("--videos", required=True, help="folder holding <id6>.mpg (or .mp4) videos, searched recursively")
     p.add_argument("--questions", required=True, help="dataset_minimal.json (or any list of question records)")
     p.add_argument("--out", required=True, help='predictions JSON: {"<video_index>_<question_index>": answer}')
-    p.add_argument("--workers", type=int, default=1, help="worker processes (one video at a time each)")
-    p.add_argument("--perceived", help="also write each video's PerceivedScene JSON into this folder")
-    p.add_argument("--details", help="also write one JSON line per question (answer, probability, program, error)")
+    add_workers_option(p, "worker processes (one video at a time each); the output is identical for any number")
+    p.add_argument("--perceived", help="also write each video's PerceivedScene JSON into this folder (default: none)")
+    p.add_argument("--details", help="also write one JSON line per question (answer, probability, program, error) "
+                                     "to this file (default: none)")
     p.add_argument("--distribution", action="store_true",
                    help="answer with the mode of each question's answer distribution and give its probability")
     p.add_argument("--samples", type=int, default=64, help="Monte Carlo readings of an answer distribution")

@@ -39,7 +39,8 @@ def add_commands(sub: Any) -> None:
     render.add_argument("--out", required=True,
                         help="output file: .mp4 (H.264), .mpg (MPEG-1, as the published CRAFT videos), .gif, "
                              "or .png with --frame")
-    render.add_argument("--frame", type=int, help="write only the frame after this many steps, as PNG")
+    render.add_argument("--frame", type=int,
+                        help="write only the frame after this many steps, as PNG (default: none, the video)")
     render.add_argument("--fps", type=float, default=60, help="frames per second, at most 60 (default 60)")
     render.add_argument("--steps", type=int, default=DEFAULT_STEPS, help="simulation steps (default 600 = 10 s)")
     render.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES, help="physics engine")

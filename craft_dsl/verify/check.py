@@ -99,18 +99,20 @@ class VerifyReport:
         t = self.totals
         lines = [f"verified {t.total} questions over {self.videos} videos: {t.agree} agree, "
                  f"{t.mismatch} mismatch(es), {t.error} error(s)", ""]
-        lines.append(f"{'category':<10} {'total':>7} {'agree':>7} {'mismatch':>9} {'error':>7}")
+        w = max(10, *(len(c) for c in CATEGORIES))  # label columns as wide as their longest label (never cut)
+        lines.append(f"{'category':<{w}} {'total':>7} {'agree':>7} {'mismatch':>9} {'error':>7}")
         for c in CATEGORIES:
             if c in self.per_category:
                 x = self.per_category[c]
-                lines.append(f"{c:<10} {x.total:>7} {x.agree:>7} {x.mismatch:>9} {x.error:>7}")
+                lines.append(f"{c:<{w}} {x.total:>7} {x.agree:>7} {x.mismatch:>9} {x.error:>7}")
         bad = [tid for tid in templates() if tid in self.per_template and self.per_template[tid].agree
                != self.per_template[tid].total]
         if bad:
             lines += ["", "templates with disagreements:"]
+            w = max(18, *(len(tid) for tid in bad))
             for tid in bad:
                 x = self.per_template[tid]
-                lines.append(f"  {tid:<18} {x.total:>6} questions, {x.mismatch} mismatch(es), {x.error} error(s)")
+                lines.append(f"  {tid:<{w}} {x.total:>6} questions, {x.mismatch} mismatch(es), {x.error} error(s)")
         if self.mismatches:
             lines += ["", f"mismatches ({min(max_items, len(self.mismatches))} of {len(self.mismatches)}):"]
             for m in self.mismatches[:max_items]:

@@ -116,11 +116,13 @@ def add_commands(subparsers: Any) -> None:
                     help='predictions JSON: {"<video_index>_<question_index>": answer} or a list of '
                          '{"video_index", "question_index", "answer"}, or JSON Lines (.jsonl) of such records; '
                          'read as a stream')
-    sc.add_argument("--split", help="split_info_random.json or split_info_hard.json: score one part only")
+    sc.add_argument("--split", help="split_info_random.json or split_info_hard.json: score one part only "
+                                    "(default: none, every question)")
     sc.add_argument("--part", help="part of the split to score (train, validation, test; default test)")
     sc.add_argument("--json", action="store_true", help="print the report as JSON")
     sc.add_argument("--per-template", action="store_true", help="also list the accuracy of every template")
-    sc.add_argument("--compare-paper", choices=("easy", "hard"), help="print the paper's results beside yours")
+    sc.add_argument("--compare-paper", choices=("easy", "hard"),
+                    help="print the paper's results on this split beside yours (default: none)")
     sc.set_defaults(func=cmd_score)
 
     fx = subparsers.add_parser("verify-fixture",

@@ -115,23 +115,27 @@ class ScoreReport:
         lines.append(f"{'accuracy %':<14}" + "".join(f"{_pct(self.columns[k].accuracy):>8}"
                                                     for k in (*FAMILIES, "All")))
         lines.append(f"{'questions':<14}" + "".join(f"{self.columns[k].total:>8}" for k in (*FAMILIES, "All")))
-        lines += ["", f"{'category':<10} {'accuracy %':>10} {'correct':>8} {'total':>7} {'missing':>8}"]
+        # label columns as wide as their longest label (never cut)
+        w = _width("category", CATEGORIES, 10)
+        lines += ["", f"{'category':<{w}} {'accuracy %':>10} {'correct':>8} {'total':>7} {'missing':>8}"]
         for c in CATEGORIES:
             if c in self.per_category:
                 s = self.per_category[c]
-                lines.append(f"{c:<10} {_pct(s.accuracy):>10} {s.correct:>8} {s.total:>7} {s.missing:>8}")
-        lines += ["", f"{'type':<15} {'accuracy %':>10} {'correct':>8} {'total':>7}"]
+                lines.append(f"{c:<{w}} {_pct(s.accuracy):>10} {s.correct:>8} {s.total:>7} {s.missing:>8}")
+        w = _width("type", QUESTION_TYPES, 15)
+        lines += ["", f"{'type':<{w}} {'accuracy %':>10} {'correct':>8} {'total':>7}"]
         for t in QUESTION_TYPES:
             if t in self.per_type:
                 s = self.per_type[t]
-                lines.append(f"{t:<15} {_pct(s.accuracy):>10} {s.correct:>8} {s.total:>7}")
+                lines.append(f"{t:<{w}} {_pct(s.accuracy):>10} {s.correct:>8} {s.total:>7}")
         if per_template:
-            lines += ["", f"{'template':<18} {'category':<7} {'accuracy %':>10} {'correct':>8} {'total':>7}"]
-            for tid in templates():
-                if tid in self.per_template:
-                    s = self.per_template[tid]
-                    lines.append(f"{tid:<18} {category_of(tid):<7} {_pct(s.accuracy):>10} {s.correct:>8} "
-                                 f"{s.total:>7}")
+            tids = [tid for tid in templates() if tid in self.per_template]
+            w, wc = _width("template", tids, 18), _width("category", [category_of(t) for t in tids], 7)
+            lines += ["", f"{'template':<{w}} {'category':<{wc}} {'accuracy %':>10} {'correct':>8} {'total':>7}"]
+            for tid in tids:
+                s = self.per_template[tid]
+                lines.append(f"{tid:<{w}} {category_of(tid):<{wc}} {_pct(s.accuracy):>10} {s.correct:>8} "
+                             f"{s.total:>7}")
         if compare_paper:
             lines += ["", paper_table(compare_paper, self, label)]
         return "\n".join(lines)
@@ -141,18 +145,27 @@ def _pct(x: float | None) -> str:
     return "-" if x is None else f"{x:.2f}"
 
 
+def _width(header: str, labels: Iterable[str], least: int = 0) -> int:
+    """The width of a label column: its longest label or header (at least ``least``), so that none is cut."""
+    return max([least, len(header), *(len(x) for x in labels)])
+
+
 def paper_table(split: str, report: ScoreReport | None = None, label: str = "yours") -> str:
     """The paper's test accuracies on ``split`` ("easy" or "hard"), with the report's row appended."""
     if split not in ("easy", "hard"):
         raise CraftError(f"--compare-paper takes 'easy' or 'hard', not {split!r}")
-    head = f"{'group':<13} {'model':<12}" + "".join(f"{k:>8}" for k in (*FAMILIES, "All"))
+    # the label columns are as wide as their longest entry: the run's label (a file name) is never cut
+    wg = _width("group", [*(r.group for r in PAPER_RESULTS), "humans", "this run"], 13)
+    wm = _width("model", [*(r.model for r in PAPER_RESULTS), "(481 q.)", *([label] if report is not None else [])],
+                12)
+    head = f"{'group':<{wg}} {'model':<{wm}}" + "".join(f"{k:>8}" for k in (*FAMILIES, "All"))
     lines = [f"CRAFT paper, {split} split (test accuracy %)", head]
     for row in PAPER_RESULTS:
         values = row.easy if split == "easy" else row.hard
-        lines.append(f"{row.group:<13} {row.model:<12}" + "".join(f"{v:>8.2f}" for v in values))
-    lines.append(f"{'humans':<13} {'(481 q.)':<12}" + "".join(f"{v:>8.2f}" for v in PAPER_HUMANS))
+        lines.append(f"{row.group:<{wg}} {row.model:<{wm}}" + "".join(f"{v:>8.2f}" for v in values))
+    lines.append(f"{'humans':<{wg}} {'(481 q.)':<{wm}}" + "".join(f"{v:>8.2f}" for v in PAPER_HUMANS))
     if report is not None:
-        lines.append(f"{'this run':<13} {label[:12]:<12}" + "".join(
+        lines.append(f"{'this run':<{wg}} {label:<{wm}}" + "".join(
             f"{_pct(report.columns[k].accuracy):>8}" for k in (*FAMILIES, "All")))
     return "\n".join(lines)
 
