@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import subprocess
 from pathlib import Path
 
 from craft_dsl.cli import modules_table
@@ -22,6 +23,13 @@ def test_readme_has_the_two_newcomer_commands() -> None:
     assert "pip install -e '.[dev]' && python -m pytest -q" in head
 
 
-def test_ci_runs_the_readme_test_command() -> None:
+def test_ci_runs_the_readme_commands_read_from_readme() -> None:
+    """.ci/run reads README's two commands from README (so they cannot drift apart) and runs them in a venv."""
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
-    assert "python -m pip install -e '.[dev]' && python -m pytest -q" in ci
+    function = ci[ci.index("readme_command() {"):]
+    function = function[:function.index("\n}\n") + 3]
+    script = function + 'readme_command "**Install and run the main job**"; readme_command "**Run the tests:**"'
+    done = subprocess.run(["bash", "-c", script], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert done.stdout.splitlines() == ["python -m pip install -e . && craft-dsl demo",
+                                        "python -m pip install -e '.[dev]' && python -m pytest -q"]
+    assert 'eval "$MAIN_CMD"' in ci and 'eval "$TEST_CMD"' in ci and '-m venv "$VENV"' in ci
