@@ -43,6 +43,11 @@ VALUE_ALIASES: dict[str, str] = {
 #: Physics engines behind the simulator protocol (pybox2d is the optional extra ``box2d``).
 ENGINES: tuple[str, ...] = ("pymunk", "box2d")
 DEFAULT_ENGINE = "pymunk"
+#: The original CRAFT simulator, driven as a separate built program (``tools/original/build.sh``): it records runs
+#: (start and end states, events) rather than stepping a world, so it serves the commands that simulate scenes and
+#: compare engines, not those that need per-frame trajectories (rendering, the reader, perceived scenes).
+ORIGINAL_ENGINE = "original"
+SIMULATORS: tuple[str, ...] = (*ENGINES, ORIGINAL_ENGINE)
 
 # Event types -----------------------------------------------------------------------------------
 

@@ -8,7 +8,16 @@ import sys
 import pytest
 from test_physics_micro import BASKET_AT, world
 
-from craft_dsl.analysis.engines import CATEGORIES, compare_engines, format_comparison, merge_stats, same_answer
+from craft_dsl.analysis.engines import (
+    CATEGORIES,
+    EVENT_STEP_TOLERANCE,
+    compare_engines,
+    format_comparison,
+    match_events,
+    merge_stats,
+    same_answer,
+    wilson_halfwidth,
+)
 from craft_dsl.analysis.scene_stats import scene_stats
 from craft_dsl.cli import main
 from craft_dsl.physics import get_engine, simulate
@@ -115,17 +124,21 @@ def test_box2d_and_pymunk_agree_on_simple_physics() -> None:
 
 def test_compare_on_a_tiny_run() -> None:
     cmp = compare_engines([3], range(2))
+    assert cmp.reference == "pymunk" and cmp.runs == ("box2d",)
     assert len(cmp.templates) == 67 and sum(t.paper for t in cmp.templates) == 48
-    assert 0.0 <= cmp.agreement <= 1.0
+    assert 0.0 <= cmp.agreement() <= 1.0
     for row in cmp.templates:
-        assert 0 <= row.agree <= row.questions <= 2 and row.invalid_b <= row.questions - row.agree
+        assert 0 <= row.agree[0] <= row.questions <= 2 and row.invalid[0] <= row.questions - row.agree[0]
         assert (row.questions == 0) == (row.majority == 0) and row.majority <= row.questions
         assert row.category in CATEGORIES
     cats = cmp.categories()
     assert [c.category for c in cats] == [*CATEGORIES, "all"]
     assert cats[-1].questions == sum(c.questions for c in cats[:-1]) > 0
-    assert all(0.0 <= c.rate <= 1.0 for c in cats if c.questions)
-    (sa, sb), = cmp.scene_rows
+    assert all(0.0 <= c.rate() <= 1.0 for c in cats if c.questions)
+    paper = cmp.paper_categories()
+    assert [c.category for c in paper][:3] == ["C", "CF", "D"] and paper[-1].category == "all"
+    assert paper[-1].questions == sum(c.questions for c in paper[:3]) == sum(c.questions for c in paper[3:-1])
+    (sa, sb), = cmp.scene_rows()
     assert (sa.runs, sb.runs) == (2, 2) and sa.dynamic_objects == sb.dynamic_objects == 3.0
     text = format_comparison(cmp, markdown=True)
     assert sum(1 for line in text.splitlines() if line.startswith("| descriptive_")) == 40
@@ -135,12 +148,36 @@ def test_compare_on_a_tiny_run() -> None:
 
 def test_an_engine_compared_with_itself_agrees_everywhere() -> None:
     cmp = compare_engines([3], [0], engines=("box2d", "box2d"))
-    assert cmp.agreement == 1.0
-    assert all(t.rate == 1.0 for t in cmp.templates if t.questions)
-    assert all(t.invalid_b == 0 for t in cmp.templates)
-    (sa, sb), = cmp.scene_rows
+    assert cmp.agreement() == 1.0
+    assert all(t.rate() == 1.0 for t in cmp.templates if t.questions)
+    assert all(t.invalid == (0,) for t in cmp.templates)
+    (sa, sb), = cmp.scene_rows()
     assert (sa.basket_share, sa.ground_share, sa.events_per_run) == (sb.basket_share, sb.ground_share,
                                                                      sb.events_per_run)
+    counts = cmp.event_counts()
+    assert all(c.reference == c.compared == c.matched for c in counts.values())
+    assert cmp.position_errors() == [0.0] * 3
+
+
+def test_three_engines_against_one_reference() -> None:
+    cmp = compare_engines([3], [0], engines=("pymunk", "box2d", "pymunk"), reference="box2d", perturb=0.02,
+                          steps=300)
+    assert cmp.reference == "box2d" and cmp.runs == ("pymunk", "pymunk", "box2d~0.02")
+    assert cmp.agreement(0) == cmp.agreement(1)  # the same engine twice: the same answers
+    assert all(len(t.agree) == 3 for t in cmp.templates)
+    text = format_comparison(cmp)
+    assert "agreement box2d~0.02 (%, 95% CI)" in text and "reference box2d against pymunk, pymunk, box2d~0.02" in text
+
+
+def test_events_match_one_to_one_within_the_tolerance() -> None:
+    a, b = frozenset({1, 2}), frozenset({1, 3})
+    ref = [(a, 10), (a, 20), (b, 50)]
+    assert match_events(ref, [(a, 12), (a, 12), (b, 80)]) == 2  # b is 30 steps late
+    assert match_events([(a, 10)], [(a, 11), (a, 12)]) == 1  # one run event pairs with one reference event
+    assert match_events([(a, 10)], [(b, 10)]) == 0  # other objects
+    assert match_events([(a, 10)], [(a, 10 + EVENT_STEP_TOLERANCE + 1)]) == 0
+    assert match_events(ref, []) == 0 and match_events([], ref) == 0
+    assert wilson_halfwidth(50, 100) == pytest.approx(0.0962, abs=1e-3) and wilson_halfwidth(0, 0) != 0.0
 
 
 def test_parallel_comparison_gives_the_same_table() -> None:
@@ -166,10 +203,11 @@ def test_answers_compare_by_type_and_value() -> None:
 def test_engines_compare_command(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["engines", "compare", "--scenes", "3", "--seeds", "1", "--markdown"]) == 0
     captured = capsys.readouterr()
-    assert "| category | templates | questions | agreement |" in captured.out
-    assert "| descriptive_0 | descriptive | yes |" in captured.out
-    assert "| template | category | paper | questions | agreement | majority answer | INVALID on box2d |" \
+    assert "| category | templates | questions | agreement box2d |" in captured.out
+    assert "| descriptive_0 | D/2Q | yes |" in captured.out
+    assert "| template | category | paper | questions | agreement box2d | majority answer | INVALID on box2d |" \
         in captured.out
+    assert "| paper category | questions | agreement box2d (%, 95% CI) |" in captured.out
     assert "basket pymunk | basket box2d" in captured.out
     assert "[1/1] scene 3 seed 0" in captured.err
     assert main(["engines", "compare", "--scenes", "3", "--seeds", "1", "--engines", "pymunk"]) == 2
@@ -177,7 +215,8 @@ def test_engines_compare_command(capsys: pytest.CaptureFixture[str]) -> None:
 
 def test_perturbed_baseline_compares_a_run_with_its_perturbation() -> None:
     cmp = compare_engines([10], [0], engines=("pymunk", "pymunk"), steps=300, perturb=0.02)
-    assert cmp.meta == {"perturb": 0.02} and 0.0 <= cmp.agreement <= 1.0
-    (sa, sb), = cmp.scene_rows
-    assert sa.scene == sb.scene == 10 and sa.runs == sb.runs == 1
-    assert "pymunk vs pymunk~0.02" in format_comparison(cmp)
+    assert cmp.meta == {"perturb": 0.02} and 0.0 <= cmp.agreement() <= 1.0
+    assert cmp.runs == ("pymunk", "pymunk~0.02")
+    (sa, sb, sc), = cmp.scene_rows()
+    assert sa.scene == sb.scene == sc.scene == 10 and sa.runs == sb.runs == sc.runs == 1
+    assert "reference pymunk against pymunk, pymunk~0.02" in format_comparison(cmp)

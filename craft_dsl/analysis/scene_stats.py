@@ -9,7 +9,8 @@ from pathlib import Path
 
 from ..physics.engine import PhysicsEngine
 from ..physics.live import get_engine, simulate
-from ..vocabulary import COLLISION, ENTER_BASKET
+from ..simulation import Simulation
+from ..vocabulary import COLLISION, ENTER_BASKET, ORIGINAL_ENGINE
 from ..world import DEFAULT_STEPS, WorldSpec
 
 
@@ -32,20 +33,27 @@ class SceneStats:
         return self.basket_share == 0.0
 
 
+def run_outcomes(sim: Simulation) -> tuple[int, int, int, int]:
+    """One run's dynamic objects, those entering the basket, those hitting the ground (a Collision with it), and
+    its events (Start and End included)."""
+    basket = len({e.objects[1] for e in sim.events if e.type == ENTER_BASKET})
+    ground = len({o for e in sim.events if e.type == COLLISION and sim.ground_id in e.objects
+                  for o in e.objects if o in sim.dynamic_ids})
+    return len(sim.dynamic_ids), basket, ground, len(sim.events)
+
+
 def scene_stats(scene: int | str | Path | WorldSpec, seeds: Iterable[int], engine: str | PhysicsEngine = "pymunk",
                 steps: int = DEFAULT_STEPS) -> SceneStats:
-    """Averages over ``seeds`` of a scene (an id, a layout file, or one concrete WorldSpec)."""
-    eng = get_engine(engine)
+    """Averages over ``seeds`` of a scene (an id, a layout file, or one concrete WorldSpec); ``engine`` may also be
+    "original", the original simulator."""
+    eng: str | PhysicsEngine = engine if engine == ORIGINAL_ENGINE else get_engine(engine)
     runs = dyn = basket = ground = events = 0
     start = time.perf_counter()
     for seed in seeds:
         sim = simulate(scene, seed=seed, steps=steps, engine=eng)
         runs += 1
-        dyn += len(sim.dynamic_ids)
-        events += len(sim.events)
-        basket += len({e.objects[1] for e in sim.events if e.type == ENTER_BASKET})
-        ground += len({o for e in sim.events if e.type == COLLISION and sim.ground_id in e.objects
-                       for o in e.objects if o in sim.dynamic_ids})
+        d, b, g, e = run_outcomes(sim)
+        dyn, basket, ground, events = dyn + d, basket + b, ground + g, events + e
     elapsed = time.perf_counter() - start
     if runs == 0:
         raise ValueError("scene_stats needs at least one seed")

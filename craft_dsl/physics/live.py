@@ -28,16 +28,19 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, Literal, TypeVar, overload
 
 import numpy as np
 
 from ..errors import CounterfactualUnavailable, MissingExtraError
 from ..simulation import ObjectState, SimObject, Simulation, Trajectory
-from ..vocabulary import ENGINES
+from ..vocabulary import ENGINES, ORIGINAL_ENGINE
 from ..world import DEFAULT_STEPS, WorldSpec
 from .engine import ContactLog, Interval, PhysicsEngine, RawRun, ReplayPlan, splice
 from .events import events_from_log
+
+if TYPE_CHECKING:
+    from .original import OriginalSimulation
 
 _INF = math.inf
 _K = TypeVar("_K", bound=tuple[int, ...])
@@ -64,6 +67,9 @@ def get_engine(engine: str | PhysicsEngine) -> PhysicsEngine:
                 raise
             raise MissingExtraError("the box2d engine", "box2d", "pybox2d") from exc
         return Box2DEngine()
+    if engine == ORIGINAL_ENGINE:
+        raise ValueError("the original simulator records runs and cannot step a world frame by frame: use "
+                         "simulate(..., engine='original'); engines that step worlds: " + ", ".join(ENGINES))
     raise ValueError(f"unknown physics engine {engine!r}; available: {', '.join(ENGINES)}")
 
 
@@ -306,25 +312,49 @@ def perturb_world(world: WorldSpec, seed: int, amount: float = 0.02) -> WorldSpe
 # -- entry point -------------------------------------------------------------------------------------
 
 
+@overload
+def simulate(scene: int | str | Path | WorldSpec, seed: int = 0, steps: int = DEFAULT_STEPS,
+             engine: Literal["pymunk", "box2d"] | PhysicsEngine = "pymunk") -> LiveSimulation: ...
+
+
+@overload
+def simulate(scene: int | str | Path | WorldSpec, seed: int = 0, steps: int = DEFAULT_STEPS, *,
+             engine: Literal["original"]) -> OriginalSimulation: ...
+
+
+@overload
+def simulate(scene: int | str | Path | WorldSpec, seed: int = 0, steps: int = DEFAULT_STEPS,
+             engine: str | PhysicsEngine = "pymunk") -> LiveSimulation | OriginalSimulation: ...
+
+
 def simulate(
     scene: int | str | Path | WorldSpec,
     seed: int = 0,
     steps: int = DEFAULT_STEPS,
     engine: str | PhysicsEngine = "pymunk",
-) -> LiveSimulation:
-    """Simulate a scene (id 1-20, a layout file, or a concrete WorldSpec) and return a LiveSimulation."""
+) -> LiveSimulation | OriginalSimulation:
+    """Simulate a scene (id 1-20, a layout file, or a concrete WorldSpec).
+
+    With a physics engine ("pymunk", "box2d" or an instance) the result is a :class:`LiveSimulation`; with
+    "original" it is the original CRAFT simulator's run of the same start state, an
+    :class:`~craft_dsl.physics.original.OriginalSimulation` (the simulator must be built:
+    ``tools/original/build.sh``)."""
     if isinstance(scene, WorldSpec):
         world = scene
     else:
         from ..scenes import sample_world  # written in parallel; imported lazily
 
         world = sample_world(scene, seed)
-    eng = get_engine(engine)
     label = world.scene_id if world.scene_id is not None or isinstance(scene, WorldSpec) else str(scene)
     meta: dict[str, Any] = {
         "scene": label,
         "seed": world.seed if world.seed is not None else seed,
-        "engine": eng.name,
     }
+    if engine == ORIGINAL_ENGINE:
+        from .original import simulate_original
+
+        return simulate_original(world, steps, meta=meta)
+    eng = get_engine(engine)
+    meta["engine"] = eng.name
     return LiveSimulation(world, eng.run(world, steps), eng, meta=meta)
 

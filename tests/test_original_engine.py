@@ -1,0 +1,244 @@
+"""The original CRAFT simulator as a third engine (``--engine original``).
+
+The tests that drive the real binary need it built (``bash tools/original/build.sh``; ``.ci/run`` builds it) and
+are skipped, saying so, where it is not. Everything else (the scene file, binary discovery, every failure of the
+binary) runs everywhere, with small stand-in programs where a binary is needed.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import stat
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from craft_dsl import parse
+from craft_dsl.analysis.engines import compare_engines
+from craft_dsl.cli import main
+from craft_dsl.physics import original as orig
+from craft_dsl.physics import simulate
+from craft_dsl.physics.original import OriginalSimulation, OriginalSimulator, OriginalSimulatorError
+from craft_dsl.scenes import sample_world
+from craft_dsl.world import make_dynamic
+
+
+def _built() -> bool:
+    try:
+        orig.find_binary()
+    except OriginalSimulatorError:
+        return False
+    return True
+
+
+needs_binary = pytest.mark.skipif(
+    not _built(), reason="the original simulator is not built: run `bash tools/original/build.sh` (needs "
+                         "../shared/original-craft/ and Debian packages; .ci/run does it)")
+
+
+# -- the scene file (no binary needed) ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("shape", "size", "mass", "inertia"), [
+    ("cube", "small", 200.0, 133.33), ("cube", "large", 800.0, 2133.33),
+    ("triangle", "small", 259.81, 259.81), ("triangle", "large", 584.57, 1315.28),
+    ("circle", "small", 157.02, 78.48), ("circle", "large", 628.07, 1255.63),
+])
+def test_scene_file_carries_the_mass_data_the_original_computes(shape: str, size: str, mass: float,
+                                                                  inertia: float) -> None:
+    rec = orig.body_record(make_dynamic(0, shape, "red", size, (1.0, 2.0), (3.0, 0.0)))
+    assert rec["massData-mass"] == pytest.approx(mass, abs=0.01)
+    assert rec["massData-I"] == pytest.approx(inertia, abs=0.01)
+    assert abs(rec["massData-centerX"]) < 1e-9 and abs(rec["massData-centerY"]) < 1e-9
+    assert rec["2dCoords"] == [1.0, 2.0] and rec["2dLinearVelocity"] == [3.0, 0.0] and rec["bodyType"] == 2
+
+
+def test_scene_file_lists_every_body_in_creation_order_with_its_fields() -> None:
+    world = sample_world(2, 0)
+    scene = orig.scene_file(world)
+    objects = scene["scene_states"][0]["scene"]["objects"]
+    assert [o["uniqueID"] for o in objects] == [b.uid for b in world.bodies]
+    assert [o["shape"] for o in objects[:4]] == ["wall_l", "wall_r", "ground", "basket"]
+    statics = [o for o in objects if o["bodyType"] == 0]
+    assert statics and all(o["massData-mass"] == 0.0 and o["color"] == "black" for o in statics)
+    keys = {"2dCoords", "2dLinearVelocity", "active", "allowSleep", "angle", "angularDamping", "angularVelocity",
+            "awake", "bodyType", "bullet", "color", "density", "fixedRotation", "friction", "gravityScale",
+            "linearDamping", "massData-I", "massData-centerX", "massData-centerY", "massData-mass", "restitution",
+            "shape", "size", "uniqueID"}
+    assert all(set(o) == keys for o in objects)
+    json.dumps(scene, allow_nan=False)
+
+
+def test_scene_file_refuses_what_the_original_cannot_express() -> None:
+    from dataclasses import replace
+
+    world = sample_world(1, 0)
+    with pytest.raises(OriginalSimulatorError, match="needs its walls, ground and basket; missing: basket"):
+        orig.scene_file(world.without(next(b.uid for b in world.bodies if b.shape == "basket")))
+    with pytest.raises(OriginalSimulatorError, match="gravity"):
+        orig.scene_file(replace(world, gravity=(0.0, -9.81)))
+    bad = replace(world, bodies=tuple(replace(b, position=(math.nan, 0.0)) if b.dynamic else b
+                                      for b in world.bodies))
+    with pytest.raises(OriginalSimulatorError, match="not finite"):
+        orig.scene_file(bad)
+
+
+# -- finding the binary and its failures (stand-in programs) --------------------------------------------------
+
+
+def test_an_unbuilt_simulator_is_one_clear_error(monkeypatch: pytest.MonkeyPatch, tmp_path: Path,
+                                                  capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.delenv(orig.ENV_BINARY, raising=False)
+    monkeypatch.setenv(orig.ENV_HOME, str(tmp_path / "empty"))
+    monkeypatch.setattr(orig, "default_archive", lambda: None)
+    with pytest.raises(OriginalSimulatorError, match="not built.*tools/original/build.sh"):
+        orig.find_binary()
+    assert main(["engines", "original", "--check"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: the original CRAFT simulator is not built") and err.count("\n") == 1
+    assert main(["simulate", "--scene", "1", "--engine", "original", "--out", str(tmp_path / "s.json")]) == 2
+    assert "not built" in capsys.readouterr().err and not (tmp_path / "s.json").exists()
+    assert main(["engines", "compare", "--scenes", "1", "--seeds", "1", "--engines", "pymunk,original"]) == 2
+    assert "not built" in capsys.readouterr().err
+
+
+def _stand_in(tmp_path: Path, body: str) -> Path:
+    """A fake simulator: a shell script that gets the controller file as $1."""
+    folder = tmp_path / "fake" / "run"
+    folder.mkdir(parents=True, exist_ok=True)
+    script = folder / "Testbed"
+    script.write_text("#!/bin/sh\n" + body + "\n")
+    script.chmod(script.stat().st_mode | stat.S_IXUSR)
+    return script
+
+
+def _controller_field(field: str) -> str:
+    return f"$({sys.executable} -c \"import json,sys; print(json.load(open(sys.argv[1]))['{field}'])\" \"$1\")"
+
+
+@pytest.mark.parametrize(("body", "message"), [
+    ("echo 'segfault soon' >&2; exit 3", r"failed on scene 1 seed 0 \(exit code 3\): segfault soon"),
+    ("kill -SEGV $$", "killed by signal 11"),
+    ("exit 0", "wrote no output file"),
+    ("echo '{\"causal' > " + _controller_field("outputJSONPath"), "malformed output file"),
+    ("echo '[1, 2]' > " + _controller_field("outputJSONPath"), "not a JSON object"),
+    ("echo '{\"causal_graph\": {\"nodes\": []}, \"scene_states\": []}' > " + _controller_field("outputJSONPath"),
+     "malformed output file"),
+    ("sleep 30", "ran past its time limit of 1 s"),
+])
+def test_every_failure_of_the_binary_is_one_error_naming_the_cause(body: str, message: str, tmp_path: Path,
+                                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(orig.ENV_DISPLAY, ":424242")  # the stand-ins draw nothing
+    simulator = OriginalSimulator(_stand_in(tmp_path, body), timeout=1)
+    with pytest.raises(OriginalSimulatorError, match=message):
+        simulator.simulation(sample_world(1, 0), 60)
+
+
+def test_a_binary_that_is_not_executable_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    path = tmp_path / "Testbed"
+    path.write_text("not a program")
+    monkeypatch.setenv(orig.ENV_BINARY, str(path))
+    assert main(["engines", "original", "--check"]) == 2
+    assert f"${orig.ENV_BINARY} is '{path}', which is not an executable file" in capsys.readouterr().err
+
+
+def test_the_video_option_belongs_to_the_original(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["simulate", "--scene", "1", "--steps", "10", "--video", str(tmp_path / "v.mpg"),
+                 "--out", str(tmp_path / "s.json")]) == 2
+    assert "--video takes the original renderer's video" in capsys.readouterr().err
+
+
+# -- the real binary --------------------------------------------------------------------------------------------
+
+
+@needs_binary
+def test_original_and_pymunk_start_from_the_same_state_and_answer_the_same_programs() -> None:
+    ours = simulate(1, seed=0, steps=240)
+    theirs = simulate(1, seed=0, steps=240, engine="original")
+    assert isinstance(theirs, OriginalSimulation) and theirs.meta["engine"] == "original"
+    assert theirs.world == ours.world
+    assert [(o.id, o.shape, o.color, o.size, o.dynamic) for o in theirs.objects] == \
+        [(o.id, o.shape, o.color, o.size, o.dynamic) for o in ours.objects]
+    for a, b in zip(theirs.objects, ours.objects):
+        assert a.start.position == pytest.approx(b.start.position, abs=1e-5)  # the original stores float32
+        assert a.start.velocity == pytest.approx(b.start.velocity, abs=1e-5)
+    assert theirs.events[0].type == "Start" and theirs.events[-1].type == "End" and theirs.events[-1].step == 240
+    programs = ["Count(FilterDynamic(FilterObjectsFromEvents(FilterCollideGround(Events()))))",
+                "Count(FilterEnterBasket(Events()))", "Count(FilterMoving(SceneAtEnd(), EndSceneStep()))"]
+    for text in programs:
+        program = parse(text)
+        a, b = program.run(theirs), program.run(ours)
+        assert type(a) is type(b)
+    assert theirs.causal_graph.number_of_nodes() == len(theirs.events)
+
+
+@needs_binary
+def test_counterfactuals_and_perturbations_are_reruns_of_the_original() -> None:
+    sim = simulate(3, seed=1, steps=180, engine="original")
+    uid = min(sim.dynamic_ids)
+    cf = sim.counterfactual(uid)
+    assert isinstance(cf, OriginalSimulation) and cf is sim.counterfactual(uid)  # cached
+    assert not cf.has_object(uid) and set(cf.all_ids) == set(sim.all_ids) - {uid} and cf.removed == (uid,)
+    assert all(uid not in e.objects for e in cf.events)
+    o = sim.object(uid)
+    query = f'Unique(FilterShape(FilterColor(FilterSize(SceneAtStart(), "{o.size}"), "{o.color}"), "{o.shape}"))'
+    count = parse(f"Count(FilterCollideGround(GetCounterfactEvents({query})))")
+    assert count.run(sim) == len([e for e in cf.events if e.type == "Collision" and cf.ground_id in e.objects])
+    again = simulate(3, seed=1, steps=180, engine="original")
+    assert [(e.type, e.step, e.objects) for e in again.events] == [(e.type, e.step, e.objects) for e in sim.events]
+    moved = sim.perturbed(5)
+    assert moved.world != sim.world and moved.meta["perturbation_seed"] == 5
+
+
+@needs_binary
+def test_simulate_command_writes_the_file_and_the_original_video(tmp_path: Path) -> None:
+    av = pytest.importorskip("av", reason="decoding needs PyAV, a core dependency")
+    out, video = tmp_path / "sim.json", tmp_path / "v.mpg"
+    assert main(["simulate", "--scene", "4", "--seed", "2", "--steps", "120", "--engine", "original",
+                 "--video", str(video), "--out", str(out)]) == 0
+    from craft_dsl import load_simulation
+
+    sim = load_simulation(out)
+    assert sim.steps == 120 and sim.counterfactual(min(sim.dynamic_ids)).steps == 120
+    with av.open(str(video)) as container:
+        frames = [f.to_ndarray(format="rgb24") for f in container.decode(video=0)]
+    assert len(frames) == 120 and frames[0].shape == (256, 256, 3)
+    last = frames[-1]
+    assert (last[:, 200:] < 100).any(), "the right half of the picture is drawn (the full-size window)"
+    assert not list(tmp_path.glob("*.part"))
+
+
+@needs_binary
+def test_skipping_the_drawing_changes_nothing_the_original_writes(tmp_path: Path) -> None:
+    """Runs without a video skip drawing (the build's one speed edit): states and events are those of a run that
+    draws and encodes every frame."""
+    simulator = OriginalSimulator()
+    world = sample_world(2, 3)
+    drawn = simulator.run(world, 150, video=tmp_path / "v.mpg").output
+    plain = simulator.run(world, 150).output
+    assert drawn["scene_states"] == plain["scene_states"]
+    events = [[(n["type"], n["step"], n["objects"]) for n in out["causal_graph"]["nodes"]] for out in (drawn, plain)]
+    assert events[0] == events[1] and len(events[0]) > 2
+
+
+@needs_binary
+def test_engines_compare_with_the_original_as_reference(capsys: pytest.CaptureFixture[str]) -> None:
+    cmp = compare_engines([6], [0], engines=("pymunk", "original"), steps=180, perturb=0.02)
+    assert cmp.reference == "original" and cmp.runs == ("pymunk", "original~0.02")
+    assert all(len(t.agree) == 2 for t in cmp.templates) and cmp.categories()[-1].questions > 0
+    assert main(["engines", "original", "--check"]) == 0
+    assert "scene 1 seed 0, 60 steps" in capsys.readouterr().out
+
+
+@needs_binary
+def test_check_runs_from_a_fresh_process_with_its_own_display() -> None:
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", orig.ENV_DISPLAY)}
+    done = subprocess.run([sys.executable, "-m", "craft_dsl", "engines", "original", "--check"], env=env,
+                          capture_output=True, text=True, timeout=120, check=False)
+    assert done.returncode == 0, done.stderr
+    assert "events" in done.stdout
