@@ -270,6 +270,10 @@ def log_from_events(events: Sequence[StepEvent], steps: int, basket_id: int, wor
     ordered = sorted(events, key=lambda e: (e.step, e.index))
     open_touch: dict[tuple[int, int], list[tuple[int, PairKey]]] = {}
 
+    def in_world(*objects: int) -> bool:
+        """Whether the world has these objects (one left out of the physics has no body: no contact, no shape)."""
+        return uids is None or all(o in uids for o in objects)
+
     def key_for(a: int, b: int, step: int) -> PairKey:
         if geometry is not None and uids is not None and a in uids and b in uids:
             parts = sorted(geometry.touching_parts(a, b, max(step, 0)))
@@ -284,8 +288,8 @@ def log_from_events(events: Sequence[StepEvent], steps: int, basket_id: int, wor
         return min(later, default=steps + 1)
 
     for e in ordered:
-        if len(e.objects) != 2:
-            continue
+        if len(e.objects) != 2 or not in_world(*e.objects):
+            continue  # (a body left out of the physics has no contacts to replay)
         a, b = e.objects
         pair = (max(a, b), min(a, b))
         if e.type == COLLISION:
@@ -325,7 +329,7 @@ def log_from_events(events: Sequence[StepEvent], steps: int, basket_id: int, wor
         for i, s in enumerate(starts):
             limit = starts[i + 1] if i + 1 < len(starts) else steps
             end = limit
-            if geometry is not None:
+            if geometry is not None and in_world(basket, body):
                 for f in range(s + 1, limit):
                     if not geometry.inside(basket, body, f):
                         end = f

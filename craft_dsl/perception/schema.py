@@ -6,7 +6,9 @@ counter-clockwise as seen in the video. Frame ``k`` (0-based) of a video at ``fp
 state after ``round((k + 1) * 60 / fps)`` physics steps (the renderer's rule; there is no frame of the initial
 state). Every field a model cannot give may be left out; ``docs/perception.md`` says what each execution mode then
 does. The structure is checked here; the semantics (known attribute values, probabilities summing to 1, track
-lengths, finite numbers, known objects) by :mod:`craft_dsl.perception.validation`.
+lengths, finite numbers, known objects) by :mod:`craft_dsl.perception.validation`. Every way of building a
+:class:`PerceivedScene` (constructor, ``model_validate``, ``model_validate_json``, the file loader) runs both and
+raises :class:`~craft_dsl.errors.PerceptionError` naming object, frame and field.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from __future__ import annotations
 import json
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, ModelWrapValidatorHandler, ValidationInfo, model_validator
 
 from ..vocabulary import COLORS, SHAPES, SIZES, STATIC_COLOR
 
@@ -107,6 +109,8 @@ class PerceivedEvent(_Model):
 class PerceivedScene(_Model):
     """Everything a perception model saw in one CRAFT video."""
 
+    # (The docstring above is the JSON Schema's description.) Building a scene checks it whole, see _checked.
+
     schema_version: str = Field(default=SCHEMA_VERSION, description="'major.minor' of this schema")
     scene: int | None = Field(default=None, ge=1, le=20, description="the CRAFT scene layout (1-20), if known")
     video: VideoInfo = Field(default_factory=VideoInfo)
@@ -115,6 +119,19 @@ class PerceivedScene(_Model):
         default=None,
         description="the events seen; null or absent: the model gives none (they are derived from tracks)")
     meta: dict[str, Any] = Field(default_factory=dict, description="free-form provenance")
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _checked(cls, data: Any, handler: ModelWrapValidatorHandler[PerceivedScene],
+                 info: ValidationInfo) -> PerceivedScene:
+        """Every way of building a scene (constructor, ``model_validate``, ``model_validate_json``, the loader)
+        runs :func:`craft_dsl.perception.validation.validate_scene`: a defect raises
+        :class:`~craft_dsl.errors.PerceptionError` naming object, frame and field (pydantic passes it through, as
+        it is no ValueError). ``model_validate(data, context={"source": "p.json"})`` names the source in the
+        message (default ``"perceived scene"``)."""
+        from .validation import validate_scene  # validation imports this module
+
+        return validate_scene(data, handler, info.context)
 
     @property
     def steps(self) -> int:

@@ -10,8 +10,10 @@ an attribute distribution with an unknown   the distribution is dropped (the att
 value, a probability outside [0, 1] or not
 finite, or probabilities not summing to 1
 a probability flag outside [0, 1]           the flag is dropped
-a pose with a non-finite number             the pose is dropped
+a pose with a number that is not finite or  the pose is dropped
+beyond 1,000,000 in magnitude
 a track frame with a NaN or infinite value  that frame is dropped (all its values become null, visible false)
+or one beyond 1,000,000 in magnitude
 track lists of different lengths, or a      the track is dropped
 track whose length does not match the
 video's frame count at the track's rate
@@ -23,13 +25,23 @@ an object or event that does not fit the    that object or event is dropped
 schema at all (wrong types)
 ==========================================  =====================================================================
 
-Defects of the scene as a whole (not JSON, wrong schema version, a non-square video) are errors in both modes.
+Defects of the scene as a whole (not JSON, wrong schema version, a non-square video, a video wider than 65,536
+pixels or a run longer than 216,000 steps) are errors in both modes.
+
+Every way of building a :class:`PerceivedScene` runs the strict checks: the constructor, ``model_validate``,
+``model_validate_json`` and :func:`parse_scene` / :func:`load_perceived` all go through :func:`validate_scene` (the
+model's validator), so a scene that exists has been checked, and a defect raises the same
+:class:`~craft_dsl.errors.PerceptionError` (never pydantic's ``ValidationError``) whatever the path. Only pydantic's
+explicit bypasses (``model_copy(update=...)``, ``model_construct``) and changes made in place skip them;
+:func:`check_scene` checks such a scene, and :class:`~craft_dsl.perception.world.SceneModel` checks every scene it
+executes that was not checked when built (:func:`checked`; a scene checked when built is not checked twice).
 """
 
 from __future__ import annotations
 
 import json
 import math
+import weakref
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -49,11 +61,23 @@ from .schema import (
     Track,
 )
 
+#: The longest run a perceived scene may show, in physics steps (an hour of video; CRAFT runs are 600 steps).
+MAX_STEPS = 216_000
+#: The widest video a perceived scene may come from, in pixels.
+MAX_WIDTH = 65_536
+#: The largest magnitude of a position (pixels), angle (radians) or velocity (per second) in a pose or track: a
+#: thousand frame widths and more is no observation (and would overflow the physics).
+MAX_MAGNITUDE = 1e6
 #: Attribute probabilities must sum to 1 within this tolerance (models write float32 softmax outputs).
 SUM_TOLERANCE = 1e-3
 _TRACK_VALUE_FIELDS = ("x", "y", "angle", "vx", "vy", "angular_velocity")
 _TRACK_FIELDS = _TRACK_VALUE_FIELDS + ("visible",)
 _MAX_LISTED = 5
+#: How an error names a scene that came from no file (the constructor, ``model_validate``...).
+DEFAULT_SOURCE = "perceived scene"
+#: The pydantic validation-context key naming the scene's source in error messages:
+#: ``PerceivedScene.model_validate(data, context={SOURCE_KEY: "p.json"})``.
+SOURCE_KEY = "source"
 
 
 @dataclass(frozen=True)
@@ -98,6 +122,13 @@ def _finite(value: float | None) -> bool:
     return value is not None and math.isfinite(value)
 
 
+def _bad_number(v: float) -> str:
+    """What is wrong with a pose or track value outside [-MAX_MAGNITUDE, MAX_MAGNITUDE]."""
+    if not math.isfinite(v):
+        return f"{v!r} is not a finite number"
+    return f"{v!r} is out of range; allowed: -{MAX_MAGNITUDE:,.0f} to {MAX_MAGNITUDE:,.0f}"
+
+
 def _check_distribution(obj: PerceivedObject, name: str, dist: dict[str, float]) -> list[Problem]:
     allowed = ATTRIBUTE_VALUES[name]
     action = f"{name} dropped"
@@ -133,14 +164,15 @@ def _check_track(obj: PerceivedObject, track: Track, scene: PerceivedScene) -> l
                         f"({scene.steps} steps) has {expected} frames at the track's {fps:g} fps; every track must "
                         "cover the whole video", obj.id, field="track.x", action="track dropped")]
     out = []
+    lo, hi = -MAX_MAGNITUDE, MAX_MAGNITUDE
     for name in _TRACK_VALUE_FIELDS:
         values = getattr(track, name)
         if values is None:
             continue
-        for k, v in enumerate(values):
-            if v is not None and not math.isfinite(v):
-                out.append(Problem(f"{v!r} is not a finite number", obj.id, frame=k, field=f"track.{name}",
-                                   action="frame dropped"))
+        # (the hot loop of validation: a comprehension; the test is False for NaN too)
+        for k in [k for k, v in enumerate(values) if v is not None and not lo <= v <= hi]:
+            out.append(Problem(_bad_number(values[k]), obj.id, frame=k, field=f"track.{name}",
+                               action="frame dropped"))
     return out
 
 
@@ -158,9 +190,8 @@ def _check_object(obj: PerceivedObject, scene: PerceivedScene) -> list[Problem]:
     if obj.pose is not None:
         for name in ("x", "y", "angle"):
             v = getattr(obj.pose, name)
-            if not math.isfinite(v):
-                out.append(Problem(f"{v!r} is not a finite number", obj.id, field=f"pose.{name}",
-                                   action="pose dropped"))
+            if not -MAX_MAGNITUDE <= v <= MAX_MAGNITUDE:
+                out.append(Problem(_bad_number(v), obj.id, field=f"pose.{name}", action="pose dropped"))
     if obj.track is not None:
         out += _check_track(obj, obj.track, scene)
     return out
@@ -209,7 +240,23 @@ def _check_video(scene: PerceivedScene) -> list[Problem]:
     if video.width != video.height:
         out.append(Problem(f"the video is {video.width} x {video.height} pixels; CRAFT videos are square",
                            field="video.height"))
-    expected = int(frame_steps(scene.steps, video.fps).size)
+    if video.width > MAX_WIDTH:
+        out.append(Problem(f"the video is {video.width} pixels wide; allowed: at most {MAX_WIDTH}",
+                           field="video.width"))
+    try:
+        steps = scene.steps
+    except OverflowError:  # round(frames * 60 / fps) of an absurd frame count or rate
+        steps = MAX_STEPS + 1
+    if steps > MAX_STEPS:
+        if video.steps is not None:
+            out.append(Problem(f"video.steps {video.steps} is more than {MAX_STEPS} steps (an hour at 60 steps per "
+                               "second; CRAFT runs are 600 steps)", field="video.steps"))
+        else:
+            out.append(Problem(f"{video.frames} frames at {video.fps:g} fps show more than {MAX_STEPS} steps (an hour "
+                               "at 60 steps per second; CRAFT runs are 600 steps); give video.steps or fix "
+                               "video.frames", field="video.frames"))
+        return out
+    expected = int(frame_steps(steps, video.fps).size)
     if expected != video.frames:
         out.append(Problem(f"{video.frames} frames at {video.fps:g} fps cannot show a run of {scene.steps} steps "
                            f"(that takes {expected} frames); give video.steps or fix video.frames",
@@ -333,31 +380,77 @@ def _parse_items(raw: Any, parse: Callable[[Any], Any], field: str, is_event: bo
     return kept
 
 
-def parse_scene(data: Any, source: str = "perceived scene", lenient: bool = False
+def _source(context: Any) -> str:
+    source = context.get(SOURCE_KEY) if isinstance(context, dict) else None
+    return source if isinstance(source, str) else DEFAULT_SOURCE
+
+
+# The scenes validate_scene passed, by identity and weakly (an entry goes when its scene is freed), so that executing
+# a scene that was checked when built does not check it again. A copy made by model_copy is another object.
+_VALIDATED: dict[int, weakref.ReferenceType[PerceivedScene]] = {}
+
+
+def _remember(scene: PerceivedScene) -> None:
+    key = id(scene)
+    _VALIDATED[key] = weakref.ref(scene, lambda _ref: _VALIDATED.pop(key, None))
+
+
+def _was_validated(scene: PerceivedScene) -> bool:
+    ref = _VALIDATED.get(id(scene))
+    return ref is not None and ref() is scene
+
+
+def validate_scene(data: Any, handler: Callable[[Any], PerceivedScene], context: Any = None) -> PerceivedScene:
+    """The checks every :class:`PerceivedScene` passes, whatever builds it (the model's wrap validator calls this).
+
+    ``data`` is what pydantic was handed (a dict, or a scene), ``handler`` pydantic's own validation of it and
+    ``context`` the validation context (:data:`SOURCE_KEY` names the source in messages). Raises
+    :class:`~craft_dsl.errors.PerceptionError` naming object, frame and field: for a schema version this release
+    cannot read, for a structural defect (pydantic's errors, each located) and for every semantic defect
+    (:func:`find_problems`)."""
+    source = _source(context)
+    if isinstance(data, dict):
+        _check_header(data, source)
+    try:
+        scene = handler(data)
+    except ValidationError as err:
+        raise _error(source, _structure_problems(err, "")) from None
+    problems = find_problems(scene)
+    if problems:
+        raise _error(source, problems)
+    _remember(scene)
+    return scene
+
+
+def checked(scene: PerceivedScene, source: str = DEFAULT_SOURCE) -> PerceivedScene:
+    """``scene`` itself, once it is known to be sound: a scene that passed validation when it was built is not
+    checked again; one that skipped it (``model_copy(update=...)``, ``model_construct``) is checked now, strictly.
+    (A scene changed in place after it was built is not noticed: build a new one, or use :func:`check_scene`.)"""
+    if not _was_validated(scene):
+        problems = find_problems(scene)
+        if problems:
+            raise _error(source, problems)
+        _remember(scene)
+    return scene
+
+
+def parse_scene(data: Any, source: str = DEFAULT_SOURCE, lenient: bool = False
                 ) -> tuple[PerceivedScene, list[Problem]]:
     """A checked :class:`PerceivedScene` from parsed JSON, and the problems lenient mode dropped (else [])."""
     if not isinstance(data, dict):
         raise PerceptionError(f"{source}: a perceived scene is a JSON object, got {type(data).__name__}")
-    _check_header(data, source)
-    if not lenient:
-        try:
-            scene = PerceivedScene.model_validate(data)
-        except ValidationError as err:
-            raise _error(source, _structure_problems(err, "")) from None
-        problems = find_problems(scene)
-        if problems:
-            raise _error(source, problems)
-        return scene, []
+    context = {SOURCE_KEY: source}
+    if not lenient:  # the model's validator runs every check (once)
+        return PerceivedScene.model_validate(data, context=context), []
     dropped: list[Problem] = []
     head = {k: v for k, v in data.items() if k not in ("objects", "events")}
-    try:
-        scene = PerceivedScene.model_validate(head)
-    except ValidationError as err:
-        raise _error(source, _structure_problems(err, "")) from None
+    # the header alone: only the schema version, structure and video can be wrong, all fatal
+    scene = PerceivedScene.model_validate(head, context=context)
     objects = _parse_items(data.get("objects", []), PerceivedObject.model_validate, "objects", False, dropped)
     events = None
     if data.get("events") is not None:
         events = _parse_items(data["events"], PerceivedEvent.model_validate, "events", True, dropped)
+    # model_copy does not validate: the parts kept are checked (and the bad ones dropped) just below
     scene = scene.model_copy(update={"objects": objects, "events": events})
     problems = find_problems(scene)
     fatal = [p for p in problems if not p.action]
@@ -366,9 +459,10 @@ def parse_scene(data: Any, source: str = "perceived scene", lenient: bool = Fals
     return repair(scene, problems), dropped + problems
 
 
-def check_scene(scene: PerceivedScene, source: str = "perceived scene", lenient: bool = False
+def check_scene(scene: PerceivedScene, source: str = DEFAULT_SOURCE, lenient: bool = False
                 ) -> tuple[PerceivedScene, list[Problem]]:
-    """Check a scene built in Python: strict raises on any defect; lenient drops the bad parts and lists them."""
+    """Check a scene that skipped validation (made by ``model_copy(update=...)``, ``model_construct`` or changed in
+    place): strict raises on any defect; lenient drops the bad parts and lists them."""
     problems = find_problems(scene)
     if problems and (not lenient or any(not p.action for p in problems)):
         raise _error(source, [p for p in problems if not lenient or not p.action])

@@ -44,6 +44,7 @@ from .fit import Drift, PhysicsWorld, build_world, drift, fit_start, refine_star
 from .reading import ObjectReading, Reading, most_likely_objects, most_likely_reading
 from .schema import PerceivedScene
 from .tracks import Motion, moving_probability, scene_motions, window_for
+from .validation import checked
 
 #: A fitted initial velocity slower than this (m/s, per component) counts as rest: a body touching something in the
 #: first frame fits its first frames as well at rest as drifting by a few millimetres per second.
@@ -89,7 +90,7 @@ class SceneModel:
     """Everything about a perceived scene that does not depend on the reading (lazy where it costs)."""
 
     def __init__(self, scene: PerceivedScene, options: ExecutionOptions | None = None) -> None:
-        self.scene = scene
+        self.scene = checked(scene)  # free for a scene validated when built; checks one made by model_copy
         self.options = options or ExecutionOptions()
         self.steps = scene.steps
         self.motions: dict[int, Motion] = scene_motions(scene)
@@ -309,6 +310,12 @@ class SceneModel:
 
         seen = [e for e in self.factual_events(reading)
                 if e.type not in (START, END) and uid not in e.objects and e.step < switch(e)]
+        present = {o.id for o in run.objects}
+        absent = sorted({o for e in seen for o in e.objects if o not in present})
+        if absent:  # the run has no such body: its perceived events cannot be replayed
+            reason = self.physics.left_out.get(absent[0], "not in the physics")
+            raise CounterfactualUnavailable(f"cannot remove object {uid}: object {absent[0]} has perceived events but "
+                                            f"is not in the physics ({reason})")
         simulated = [e for e in run.events if e.type not in (START, END) and e.step >= switch(e)]
         merged = sorted([(e.step, 0, i, e) for i, e in enumerate(seen)]
                         + [(e.step, 1, i, e) for i, e in enumerate(simulated)])
