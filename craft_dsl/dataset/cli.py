@@ -14,6 +14,7 @@ from typing import Any
 from ..errors import CraftError
 from ..parallel import add_workers_option
 from ..ranges import parse_ranges, parse_scenes
+from ..vocabulary import ORIGINAL_ENGINE, SIMULATORS
 
 #: Frame rates ``--downsampled`` accepts (the videos run at 60 frames per second).
 DOWNSAMPLED_FPS = (1, 60)
@@ -60,7 +61,11 @@ def cmd_generate(args: argparse.Namespace) -> int:
     config = GenerationConfig.make(**fields)
     if args.scheduler and args.executor != "dask":
         raise CraftError("--scheduler is for --executor dask")
-    if args.executor == "local":
+    if config.engine == ORIGINAL_ENGINE:
+        from ..physics.original import find_binary
+
+        find_binary()  # not built: one line saying how to build it, not one per video
+    elif args.executor == "local":
         from ..physics.live import get_engine
 
         get_engine(config.engine)  # a missing extra (box2d): one line naming its pip install, not one per video
@@ -143,7 +148,9 @@ def add_commands(sub: Any) -> None:
     gen.add_argument("--downsampled", metavar="FPS",
                      help="with --videos, also write H.264 videos at these frame rates (1-60), e.g. 5,10 "
                           "(downsampled/<fps>-fps/, as the published models read them; default: none)")
-    gen.add_argument("--engine", default="pymunk", choices=("pymunk", "box2d"), help="physics engine")
+    gen.add_argument("--engine", default="pymunk", choices=SIMULATORS,
+                     help="physics engine; original: the original CRAFT simulator (built by tools/original/build.sh), "
+                          "whose renderer also draws the videos (default: %(default)s)")
     gen.add_argument("--templates", help="comma-separated template ids (default: all 67)")
     gen.add_argument("--no-balance", action="store_true",
                      help="skip answer balancing (small datasets: balancing purges every (scene, template) group "

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import CraftError
+from ..vocabulary import ORIGINAL_ENGINE
 from .layout import DEFAULT_VIDEO_FORMAT
 from .stages import answer_label, post_process, template_id_of, video_path
 
@@ -202,8 +203,8 @@ def run_instance(task: InstanceTask, clock: StageClock | None = None) -> Instanc
     from . import questions as part_a
 
     stage = clock.stage if clock is not None else _no_stage
-    engine: Any = get_engine(task.engine)
-    if clock is not None:
+    engine: Any = task.engine if task.engine == ORIGINAL_ENGINE else get_engine(task.engine)
+    if clock is not None and engine != ORIGINAL_ENGINE:
         engine = _TimedEngine(engine, clock)
     vpath = video_path(task.scene, task.instance_id, task.video_format)
     sim_seed, question_ss, perturb_ss = instance_seeds(task.seed, task.instance_id)

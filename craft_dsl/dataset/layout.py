@@ -20,9 +20,16 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Sequence
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
+import numpy as np
+
+from ..atomic import atomic_path
+from ..errors import CraftError
 from ..simulation import Simulation
+
+if TYPE_CHECKING:
+    from ..physics.original import OriginalSimulation
 
 VideoFormat = Literal["mpg", "mp4"]
 #: Video formats ``generate --video-format`` writes; ``mpg`` (the published dataset's) is the default.
@@ -94,8 +101,11 @@ def write_media(sim: Simulation, root: Path, scene: int, instance_id: int, video
     """Render a live simulation into the published layout: the video (``.mpg`` MPEG-1 or ``.mp4`` H.264, 60 fps,
     256 x 256), its first and last frames as PNG (the states shown by the video's first and last frames: after
     step 1 and after the last step), and one H.264 video per ``downsampled`` frame rate. Each file is atomic."""
+    from ..physics.original import OriginalSimulation
     from ..render import frame_steps, write_png, write_video
 
+    if isinstance(sim, OriginalSimulation):
+        return write_original_media(sim, root, scene, instance_id, video_format, downsampled)
     video, first, last, *lower = media_files(root, scene, instance_id, video_format, downsampled)
     write_video(sim, video)
     steps = frame_steps(sim.steps)
@@ -104,6 +114,44 @@ def write_media(sim: Simulation, root: Path, scene: int, instance_id: int, video
     for fps, path in zip(downsampled, lower, strict=True):
         write_video(sim, path, fps=fps)
     return [video, first, last, *lower]
+
+
+def write_original_media(sim: OriginalSimulation, root: Path, scene: int, instance_id: int, video_format: str,
+                         downsampled: Sequence[int] = ()) -> list[Path]:
+    """:func:`write_media` for a run of the original simulator: the original renderer draws the video (the factual
+    run again, with drawing and MPEG-1 encoding on; its bytes are the ``.mpg``), and the first and last frames, an
+    ``.mp4`` and the lower frame rates are taken from its decoded frames."""
+    import tempfile
+
+    from ..render import encode_png, frame_steps, write_frames
+
+    video, first, last, *lower = media_files(root, scene, instance_id, video_format, downsampled)
+    with tempfile.TemporaryDirectory(prefix="craft-original-media-") as tmp:
+        mpg = Path(tmp) / "original.mpg"
+        sim.simulator.run(sim.world_spec, sim.steps, video=mpg, what=f"scene {scene} video {instance_id}")
+        frames = _decoded_frames(mpg)
+        if len(frames) != sim.steps:
+            raise CraftError(f"the original renderer's video of scene {scene} video {instance_id} has {len(frames)} "
+                             f"frames; {sim.steps} were drawn")
+        if video_format == ".mpg":
+            with atomic_path(video) as part:
+                part.write_bytes(mpg.read_bytes())
+        else:
+            write_frames(frames, video)
+        for path, image in ((first, frames[0]), (last, frames[-1])):
+            with atomic_path(path) as part:
+                part.write_bytes(encode_png(image))
+        for fps, path in zip(downsampled, lower, strict=True):  # frame i shows the state after i + 1 steps
+            write_frames([frames[int(row) - 1] for row in frame_steps(sim.steps, fps)], path, fps=fps)
+    return [video, first, last, *lower]
+
+
+def _decoded_frames(path: Path) -> list[np.ndarray]:
+    """Every frame of a video as RGB uint8 arrays."""
+    import av
+
+    with av.open(str(path)) as container:
+        return [f.to_ndarray(format="rgb24") for f in container.decode(video=0)]
 
 
 def park_videos_without_questions(root: Path, scene_of: dict[int, int], with_questions: Iterable[int],

@@ -91,7 +91,8 @@ class GenerationConfig(BaseModel):
     videos: bool = Field(False, description="render each video with its first and last frames")
     video_format: VideoFormat = Field(DEFAULT_VIDEO_FORMAT, description="mpg (MPEG-1, as published) or mp4 (H.264)")
     downsampled: tuple[int, ...] = Field((), description="also write H.264 videos at these frame rates (with videos)")
-    engine: Literal["pymunk", "box2d"] = "pymunk"
+    engine: Literal["pymunk", "box2d", "original"] = Field("pymunk", description="physics engine (original: the "
+                                                           "original CRAFT simulator, which also draws the videos)")
     templates: tuple[str, ...] = Field(tuple(templates()), description="template ids to instantiate")
     balance: bool = Field(True, description="answer balancing (off: keep every question that passed the filters)")
 

@@ -110,7 +110,17 @@ def skip_drawing_on_request(root: Path) -> str:
     if not any(line.strip() == "#include <cstdlib>" for line in lines):
         lines.insert(0, "#include <cstdlib>\n")
     _write(path, lines)
-    return "Simulation.cpp: drawing skipped when CRAFT_ORIGINAL_NO_DRAW is set"
+    # The render loop also clears and swaps the 16x multisampled window every step: skipped the same way.
+    path = root / "Testbed/Framework/SimulationMain.cpp"
+    lines = _read(path)
+    for call in ("glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);", "glfwSwapBuffers(mainWindow);"):
+        at = _only_line(lines, call, path)
+        indent = lines[at][: len(lines[at]) - len(lines[at].lstrip())]
+        lines[at] = indent + 'if (std::getenv("CRAFT_ORIGINAL_NO_DRAW") == nullptr) ' + lines[at].lstrip()
+    if not any(line.strip() == "#include <cstdlib>" for line in lines):
+        lines.insert(0, "#include <cstdlib>\n")
+    _write(path, lines)
+    return "Simulation.cpp, SimulationMain.cpp: draw, clear and swap skipped when CRAFT_ORIGINAL_NO_DRAW is set"
 
 
 def replace_video_writer(root: Path, replacement: Path) -> str:
