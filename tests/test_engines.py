@@ -220,3 +220,19 @@ def test_perturbed_baseline_compares_a_run_with_its_perturbation() -> None:
     (sa, sb, sc), = cmp.scene_rows()
     assert sa.scene == sb.scene == sc.scene == 10 and sa.runs == sb.runs == sc.runs == 1
     assert "reference pymunk against pymunk, pymunk~0.02" in format_comparison(cmp)
+
+
+def test_pymunk_can_build_circles_as_the_original_128_gons() -> None:
+    """circle_sides=128: circles become the original's regular 128-gons (its mass and inertia, plus the 0.01 m skin
+    every pymunk polygon carries), and still roll."""
+    from craft_dsl.physics.pymunk_engine import PymunkEngine
+
+    ball = make_dynamic(0, "circle", "red", "large", (-10.0, 10.0), (6.0, 0.0))
+    engine = PymunkEngine(circle_sides=128)
+    space, bodies, _ = engine.build_space(world(ball))
+    body = bodies[0]
+    assert body.mass == pytest.approx(628.07, rel=0.015) and body.moment == pytest.approx(1255.63, rel=0.025)
+    assert len(body.shapes) == 1 and len(next(iter(body.shapes)).get_vertices()) == 128
+    sim = simulate(world(ball), steps=240, engine=engine)
+    assert sim.object(0).end.position[0] > -10.0 + 6.0  # rolled to the right along the ground
+    assert simulate(world(ball), steps=240, engine=PymunkEngine()).object(0).end.position != sim.object(0).end.position

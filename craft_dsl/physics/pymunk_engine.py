@@ -4,9 +4,11 @@ Box2D behaviour of the original simulator, emulated:
 
 * friction 0.1 on every contact (each shape gets sqrt(0.1), Chipmunk multiplies); restitution 0.2 applied
   only when a contact begins with a normal approach speed above 1 m/s (Box2D's velocity threshold), else 0;
-* polygons and basket edges carry a 0.01 m radius like Box2D's skin; circles are pymunk circles;
+* polygons and basket edges carry a 0.01 m radius like Box2D's skin; circles are pymunk circles
+  (``circle_sides=128`` builds the original's 128-gons instead; docs/original.md measures both);
 * collision slop 0.005 m; overlap is resolved with Chipmunk's bias pseudo-velocities, which are not kept
-  as real velocity, so initial overlaps are pushed out without launching bodies;
+  as real velocity, so initial overlaps are pushed out without launching bodies (20% of an overlap per frame;
+  Box2D's three position iterations push out about 49%: ``collision_bias=0.8**180``);
 * several sub-steps per 1/60-s frame stand in for Box2D's continuous collision (no tunnelling through
   the 0.01-m basket walls at ~50 m/s);
 * sleeping after 0.5 s below 0.01 m/s; a sleeping body reports zero velocity.
@@ -24,7 +26,7 @@ from typing import Any
 import pymunk
 from pymunk._chipmunk import lib as _lib
 
-from ..world import FRICTION, RESTITUTION, RESTITUTION_THRESHOLD, BodySpec, WorldSpec
+from ..world import FRICTION, RESTITUTION, RESTITUTION_THRESHOLD, BodySpec, WorldSpec, regular_polygon
 from .engine import RawRun, ReplayPlan
 from .recording import BodyState, ContactRecorder, ShapeTag, StateRecorder, SubstepIntervalRecorder
 
@@ -54,8 +56,10 @@ class PymunkEngine:
         idle_speed: float = 0.01,
         max_move: float = 0.03,
         max_substeps: int = 32,
+        circle_sides: int = 0,
     ) -> None:
         self.substeps = substeps
+        self.circle_sides = circle_sides
         self.max_move = max_move
         self.max_substeps = max_substeps
         self.iterations = iterations
@@ -94,7 +98,10 @@ class PymunkEngine:
         shapes: list[pymunk.Shape] = []
         for poly in geo.polygons:
             shapes.append(pymunk.Poly(body, list(poly), radius=self.polygon_radius))
-        if geo.circle_radius is not None:
+        if geo.circle_radius is not None and self.circle_sides:
+            shapes.append(pymunk.Poly(body, list(regular_polygon(geo.circle_radius, self.circle_sides)),
+                                      radius=self.polygon_radius))
+        elif geo.circle_radius is not None:
             shapes.append(pymunk.Circle(body, geo.circle_radius))
         for a, b in geo.segments:
             shapes.append(pymunk.Segment(body, a, b, geo.segment_radius))
