@@ -61,33 +61,34 @@ def include_cstring(root: Path) -> str:
     return "b2VisTexture.cpp: added #include <cstring>"
 
 
-def load_glad_off_apple(root: Path) -> str:
-    # glad's GL entry points are only loaded under MSVC; on Linux every GL call then jumps to NULL.
+def _msvc_guard_to_not_apple(root: Path, anchor: str, what: str) -> bool:
+    """Turn the ``#ifdef _MSC_VER`` guard above the line holding ``anchor`` in SimulationMain.cpp into a guard for
+    every non-Apple platform; False if that was already done."""
     path = root / "Testbed/Framework/SimulationMain.cpp"
     lines = _read(path)
-    guard = _guard_before(lines, _only_line(lines, "gladLoadGLLoader(", path), path, "gladLoadGLLoader")
+    guard = _guard_before(lines, _only_line(lines, anchor, path), path, what)
     if lines[guard].strip() == NOT_APPLE:
-        return "SimulationMain.cpp: glad loader already enabled"
+        return False
     if lines[guard].strip() != "#ifdef _MSC_VER":
-        raise PatchError(f"SimulationMain.cpp: unexpected guard above gladLoadGLLoader: {lines[guard].strip()!r}")
+        raise PatchError(f"SimulationMain.cpp: unexpected guard above {what}: {lines[guard].strip()!r}")
     lines[guard] = NOT_APPLE + "\n"
     _write(path, lines)
+    return True
+
+
+def load_glad_off_apple(root: Path) -> str:
+    # glad's GL entry points are only loaded under MSVC; on Linux every GL call then jumps to NULL.
+    if not _msvc_guard_to_not_apple(root, "gladLoadGLLoader(", "gladLoadGLLoader"):
+        return "SimulationMain.cpp: glad loader already enabled"
     return "SimulationMain.cpp: gladLoadGLLoader now runs on every non-Apple platform"
 
 
 def full_size_window_off_apple(root: Path) -> str:
     # Off Windows the window is opened at width/2 x height/2 (a Retina assumption); without a
     # 2x display the read-back frame would hold the scene only in its lower-left quarter.
-    path = root / "Testbed/Framework/SimulationMain.cpp"
-    lines = _read(path)
-    at = _only_line(lines, "glfwCreateWindow(g_camera.m_width, g_camera.m_height", path)
-    guard = _guard_before(lines, at, path, "the full-size glfwCreateWindow")
-    if lines[guard].strip() == NOT_APPLE:
+    if not _msvc_guard_to_not_apple(root, "glfwCreateWindow(g_camera.m_width, g_camera.m_height",
+                                    "the full-size glfwCreateWindow"):
         return "SimulationMain.cpp: full-size window already selected"
-    if lines[guard].strip() != "#ifdef _MSC_VER":
-        raise PatchError(f"SimulationMain.cpp: unexpected guard above glfwCreateWindow: {lines[guard].strip()!r}")
-    lines[guard] = NOT_APPLE + "\n"
-    _write(path, lines)
     return "SimulationMain.cpp: window created at full width x height off macOS"
 
 
