@@ -252,7 +252,7 @@ def _folder_bytes(root: Path) -> dict[str, bytes]:
 @needs_binary
 def test_generate_with_the_original_engine_and_its_renderer(tmp_path: Path) -> None:
     """A dataset made by the original simulator, videos drawn by its renderer: byte-identical for any number of
-    workers, and every answer re-derived from the saved simulations."""
+    workers and on a Dask cluster, and every answer re-derived from the saved simulations."""
     args = ["generate", "--size", "2", "--scenes", "1,6", "--steps", "240", "--perturbations", "1", "--no-balance",
             "--videos", "--engine", "original", "--quiet"]
     assert main([*args, "--workers", "1", "--out", str(tmp_path / "one")]) == 0
@@ -265,3 +265,10 @@ def test_generate_with_the_original_engine_and_its_renderer(tmp_path: Path) -> N
     assert config["engine"] == "original"
     assert main(["verify", "--dataset", str(tmp_path / "one" / "dataset.json"),
                  "--annotations", str(tmp_path / "one" / "annotations.json")]) == 0
+    distributed = pytest.importorskip("distributed", reason="the Dask executor needs the dask extra: "
+                                                            "pip install 'craft-dsl[dask]'")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) \
+            as cluster:  # each Dask worker process starts its own Xvfb
+        assert main([*args, "--executor", "dask", "--scheduler", cluster.scheduler_address,
+                     "--out", str(tmp_path / "dask")]) == 0
+    assert _folder_bytes(tmp_path / "dask") == one
