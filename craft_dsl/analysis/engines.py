@@ -34,7 +34,7 @@ from ..verify.categories import CATEGORIES as PAPER_CATEGORIES
 from ..verify.categories import FAMILIES, category_of, family_of
 from ..vocabulary import COLLISION, ENGINES, ENTER_BASKET, ORIGINAL_ENGINE
 from ..world import DEFAULT_STEPS
-from .scene_stats import SceneStats, run_outcomes, text_table
+from .scene_stats import SceneStats, run_outcomes, scene_label, text_table
 
 #: Template families, in the templates file's order.
 CATEGORIES = ("descriptive", "counterfactual", "cause", "enable", "prevent")
@@ -151,8 +151,7 @@ def end_position_errors(ref: Simulation, run: Simulation) -> tuple[float, ...]:
 
 def _stats_of(sim: Simulation, scene: int | str | Path, seconds: float) -> SceneStats:
     dyn, basket, ground, events = run_outcomes(sim)
-    label = scene if isinstance(scene, int) else Path(scene).stem
-    return SceneStats(label, 1, float(dyn), basket / max(dyn, 1), ground / max(dyn, 1), float(events),
+    return SceneStats(scene_label(scene), 1, float(dyn), basket / max(dyn, 1), ground / max(dyn, 1), float(events),
                       1 / seconds if seconds > 0 else float("inf"))
 
 

@@ -33,6 +33,15 @@ class SceneStats:
         return self.basket_share == 0.0
 
 
+def scene_label(scene: int | str | Path | WorldSpec) -> int | str:
+    """How a table names a scene: its id, a layout file's name, or a WorldSpec's scene id (0 if it has none)."""
+    if isinstance(scene, int):
+        return scene
+    if isinstance(scene, (str, Path)):
+        return Path(scene).stem
+    return scene.scene_id or 0
+
+
 def run_outcomes(sim: Simulation) -> tuple[int, int, int, int]:
     """One run's dynamic objects, those entering the basket, those hitting the ground (a Collision with it), and
     its events (Start and End included)."""
@@ -57,9 +66,7 @@ def scene_stats(scene: int | str | Path | WorldSpec, seeds: Iterable[int], engin
     elapsed = time.perf_counter() - start
     if runs == 0:
         raise ValueError("scene_stats needs at least one seed")
-    label = scene if isinstance(scene, int) else Path(scene).stem if isinstance(scene, (str, Path)) else \
-        (scene.scene_id or 0)
-    return SceneStats(label, runs, dyn / runs, basket / max(dyn, 1), ground / max(dyn, 1), events / runs,
+    return SceneStats(scene_label(scene), runs, dyn / runs, basket / max(dyn, 1), ground / max(dyn, 1), events / runs,
                       runs / elapsed if elapsed > 0 else float("inf"))
 
 

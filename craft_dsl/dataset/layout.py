@@ -22,8 +22,6 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
-import numpy as np
-
 from ..atomic import atomic_path
 from ..errors import CraftError
 from ..simulation import Simulation
@@ -123,13 +121,14 @@ def write_original_media(sim: OriginalSimulation, root: Path, scene: int, instan
     ``.mp4`` and the lower frame rates are taken from its decoded frames."""
     import tempfile
 
+    from ..reader.video import decode
     from ..render import encode_png, frame_steps, write_frames
 
     video, first, last, *lower = media_files(root, scene, instance_id, video_format, downsampled)
     with tempfile.TemporaryDirectory(prefix="craft-original-media-") as tmp:
         mpg = Path(tmp) / "original.mpg"
         sim.simulator.run(sim.world_spec, sim.steps, video=mpg, what=f"scene {scene} video {instance_id}")
-        frames = _decoded_frames(mpg)
+        frames = decode(mpg, "pyav")
         if len(frames) != sim.steps:
             raise CraftError(f"the original renderer's video of scene {scene} video {instance_id} has {len(frames)} "
                              f"frames; {sim.steps} were drawn")
@@ -144,14 +143,6 @@ def write_original_media(sim: OriginalSimulation, root: Path, scene: int, instan
         for fps, path in zip(downsampled, lower, strict=True):  # frame i shows the state after i + 1 steps
             write_frames([frames[int(row) - 1] for row in frame_steps(sim.steps, fps)], path, fps=fps)
     return [video, first, last, *lower]
-
-
-def _decoded_frames(path: Path) -> list[np.ndarray]:
-    """Every frame of a video as RGB uint8 arrays."""
-    import av
-
-    with av.open(str(path)) as container:
-        return [f.to_ndarray(format="rgb24") for f in container.decode(video=0)]
 
 
 def park_videos_without_questions(root: Path, scene_of: dict[int, int], with_questions: Iterable[int],

@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING
 
 from ..templates import templates
 from ..verify.categories import category_of
+from ..verify.scoring import label_width
 
 if TYPE_CHECKING:
     from .evaluate import EvaluationReport, Metrics, QuestionResult
@@ -20,11 +21,6 @@ def _pct(x: float | None) -> str:
 
 def _row(name: str, m: Metrics, shown: list[tuple[str, str]], width: int = 24) -> str:
     return f"{name:<{width}} {m.questions:>9}" + "".join(f"{_pct(getattr(m, attr)):>10}" for _, attr in shown)
-
-
-def _width(header: str, labels: list[str], least: int) -> int:
-    """The width of a label column: its longest label or header (at least ``least``), so that none is cut."""
-    return max([least, len(header), *(len(x) for x in labels)])
 
 
 def _failure(r: QuestionResult) -> str | None:
@@ -62,13 +58,13 @@ def format_report(report: EvaluationReport, per_template: bool, failures: int) -
              if (attr not in ("validity", "exact_match_rate", "execution_accuracy") or m.programs)
              and (attr != "answer_accuracy" or m.answers) and (attr != "trace_agreement" or m.traces)]
     groups = report.groups()
-    w = _width("group", [name for name, _ in groups], 24)
+    w = label_width("group", [name for name, _ in groups], 24)
     lines += ["", "rates over all questions of a group (trace %: over the compared nodes)",
               f"{'group':<{w}} {'questions':>9}" + "".join(f"{label:>10}" for label, _ in shown)]
     lines += [_row(name, g, shown, w) for name, g in groups]
     if per_template:
         rows = [(f"{t} {category_of(t)}", report.per_template[t]) for t in templates() if t in report.per_template]
-        w = _width("template", [name for name, _ in rows], 24)
+        w = label_width("template", [name for name, _ in rows], 24)
         lines += ["", f"{'template':<{w}} {'questions':>9}" + "".join(f"{label:>10}" for label, _ in shown)]
         lines += [_row(name, m, shown, w) for name, m in rows]
     if m.distributions:
@@ -76,7 +72,7 @@ def format_report(report: EvaluationReport, per_template: bool, failures: int) -
                       f"mean log-likelihood of the recorded answer {m.mean_log_likelihood:.4f}, "
                       f"mean Brier score {m.mean_brier:.4f}"]
     if report.per_module:
-        w = _width("trace: module", list(report.per_module), 30)
+        w = label_width("trace: module", list(report.per_module), 30)
         lines += ["", f"{'trace: module':<{w}} {'compared':>9} {'agree %':>9}"]
         for module, (compared, agreed) in sorted(report.per_module.items()):
             lines.append(f"{module:<{w}} {compared:>9} {_pct(100.0 * agreed / compared if compared else None):>9}")

@@ -17,18 +17,21 @@ _STEPS_HELP = f"simulation steps per run, 60 per second (default {DEFAULT_STEPS}
 
 def cmd_simulate(args: argparse.Namespace) -> int:
     from ..recorded import save_simulation
-    from .live import simulate
+    from ..simulation import Simulation
+    from .live import simulate, world_and_meta
 
-    sim = simulate(parse_scene(args.scene), seed=args.seed, steps=args.steps, engine=args.engine)
-    if args.video is not None:
-        if args.engine != ORIGINAL_ENGINE:
-            print("error: --video takes the original renderer's video (--engine original); for pymunk and box2d "
-                  "use craft-dsl render", file=sys.stderr)
-            return 2
-        from .original import OriginalSimulation
+    sim: Simulation
+    if args.video is None:
+        sim = simulate(parse_scene(args.scene), seed=args.seed, steps=args.steps, engine=args.engine)
+    elif args.engine != ORIGINAL_ENGINE:
+        print("error: --video takes the original renderer's video (--engine original); for pymunk and box2d "
+              "use craft-dsl render", file=sys.stderr)
+        return 2
+    else:  # one run of the original, drawn and encoded
+        from .original import simulate_original
 
-        assert isinstance(sim, OriginalSimulation)
-        sim = sim.simulator.simulation(sim.world_spec, sim.steps, video=args.video, meta=sim.meta)
+        world, meta = world_and_meta(parse_scene(args.scene), args.seed)
+        sim = simulate_original(world, args.steps, video=args.video, meta=meta)
     save_simulation(sim, args.out, variations=not args.no_variations)
     n_var = 0 if args.no_variations else len(sim.dynamic_ids)
     print(f"wrote {args.out}: scene {sim.meta['scene']} seed {sim.meta['seed']}, {len(sim.events)} events, "

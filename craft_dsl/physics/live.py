@@ -312,6 +312,19 @@ def perturb_world(world: WorldSpec, seed: int, amount: float = 0.02) -> WorldSpe
 # -- entry point -------------------------------------------------------------------------------------
 
 
+def world_and_meta(scene: int | str | Path | WorldSpec, seed: int = 0) -> tuple[WorldSpec, dict[str, Any]]:
+    """The world :func:`simulate` runs (``scene`` itself, or sampled from a scene id or layout file with ``seed``) and
+    the provenance it records (``scene``, ``seed``)."""
+    if isinstance(scene, WorldSpec):
+        world = scene
+    else:
+        from ..scenes import sample_world  # written in parallel; imported lazily
+
+        world = sample_world(scene, seed)
+    label = world.scene_id if world.scene_id is not None or isinstance(scene, WorldSpec) else str(scene)
+    return world, {"scene": label, "seed": world.seed if world.seed is not None else seed}
+
+
 @overload
 def simulate(scene: int | str | Path | WorldSpec, seed: int = 0, steps: int = DEFAULT_STEPS,
              engine: Literal["pymunk", "box2d"] | PhysicsEngine = "pymunk") -> LiveSimulation: ...
@@ -339,17 +352,7 @@ def simulate(
     "original" it is the original CRAFT simulator's run of the same start state, an
     :class:`~craft_dsl.physics.original.OriginalSimulation` (the simulator must be built:
     ``tools/original/build.sh``)."""
-    if isinstance(scene, WorldSpec):
-        world = scene
-    else:
-        from ..scenes import sample_world  # written in parallel; imported lazily
-
-        world = sample_world(scene, seed)
-    label = world.scene_id if world.scene_id is not None or isinstance(scene, WorldSpec) else str(scene)
-    meta: dict[str, Any] = {
-        "scene": label,
-        "seed": world.seed if world.seed is not None else seed,
-    }
+    world, meta = world_and_meta(scene, seed)
     if engine == ORIGINAL_ENGINE:
         from .original import simulate_original
 

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..atomic import atomic_path
 from ..errors import CounterfactualUnavailable, CraftError, SimulationFileError
 from ..simulation import Simulation
 from ..world import DEFAULT_STEPS, DENSITY, FRICTION, RESTITUTION, BodySpec, WorldSpec, regular_polygon
@@ -394,9 +395,8 @@ class OriginalSimulator:
                 if not out_video.is_file() or out_video.stat().st_size == 0:
                     raise OriginalSimulatorError(f"the original simulator wrote no video on {label}")
                 kept = Path(video)
-                tmp_video = kept.with_name(kept.name + ".part")
-                shutil.copyfile(out_video, tmp_video)
-                os.replace(tmp_video, kept)
+                with atomic_path(kept) as part:
+                    shutil.copyfile(out_video, part)
         return OriginalRun(output, kept, seconds)
 
     def simulation(self, world: WorldSpec, steps: int = DEFAULT_STEPS, *, video: str | os.PathLike[str] | None = None,

@@ -116,13 +116,13 @@ class ScoreReport:
                                                     for k in (*FAMILIES, "All")))
         lines.append(f"{'questions':<14}" + "".join(f"{self.columns[k].total:>8}" for k in (*FAMILIES, "All")))
         # label columns as wide as their longest label (never cut)
-        w = _width("category", CATEGORIES, 10)
+        w = label_width("category", CATEGORIES, 10)
         lines += ["", f"{'category':<{w}} {'accuracy %':>10} {'correct':>8} {'total':>7} {'missing':>8}"]
         for c in CATEGORIES:
             if c in self.per_category:
                 s = self.per_category[c]
                 lines.append(f"{c:<{w}} {_pct(s.accuracy):>10} {s.correct:>8} {s.total:>7} {s.missing:>8}")
-        w = _width("type", QUESTION_TYPES, 15)
+        w = label_width("type", QUESTION_TYPES, 15)
         lines += ["", f"{'type':<{w}} {'accuracy %':>10} {'correct':>8} {'total':>7}"]
         for t in QUESTION_TYPES:
             if t in self.per_type:
@@ -130,7 +130,7 @@ class ScoreReport:
                 lines.append(f"{t:<{w}} {_pct(s.accuracy):>10} {s.correct:>8} {s.total:>7}")
         if per_template:
             tids = [tid for tid in templates() if tid in self.per_template]
-            w, wc = _width("template", tids, 18), _width("category", [category_of(t) for t in tids], 7)
+            w, wc = label_width("template", tids, 18), label_width("category", [category_of(t) for t in tids], 7)
             lines += ["", f"{'template':<{w}} {'category':<{wc}} {'accuracy %':>10} {'correct':>8} {'total':>7}"]
             for tid in tids:
                 s = self.per_template[tid]
@@ -145,7 +145,7 @@ def _pct(x: float | None) -> str:
     return "-" if x is None else f"{x:.2f}"
 
 
-def _width(header: str, labels: Iterable[str], least: int = 0) -> int:
+def label_width(header: str, labels: Iterable[str], least: int = 0) -> int:
     """The width of a label column: its longest label or header (at least ``least``), so that none is cut."""
     return max([least, len(header), *(len(x) for x in labels)])
 
@@ -155,8 +155,8 @@ def paper_table(split: str, report: ScoreReport | None = None, label: str = "you
     if split not in ("easy", "hard"):
         raise CraftError(f"--compare-paper takes 'easy' or 'hard', not {split!r}")
     # the label columns are as wide as their longest entry: the run's label (a file name) is never cut
-    wg = _width("group", [*(r.group for r in PAPER_RESULTS), "humans", "this run"], 13)
-    wm = _width("model", [*(r.model for r in PAPER_RESULTS), "(481 q.)", *([label] if report is not None else [])],
+    wg = label_width("group", [*(r.group for r in PAPER_RESULTS), "humans", "this run"], 13)
+    wm = label_width("model", [*(r.model for r in PAPER_RESULTS), "(481 q.)", *([label] if report is not None else [])],
                 12)
     head = f"{'group':<{wg}} {'model':<{wm}}" + "".join(f"{k:>8}" for k in (*FAMILIES, "All"))
     lines = [f"CRAFT paper, {split} split (test accuracy %)", head]
