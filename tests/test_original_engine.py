@@ -214,6 +214,23 @@ def test_simulate_command_writes_the_file_and_the_original_video(tmp_path: Path)
 
 
 @needs_binary
+def test_static_balls_are_drawn_as_the_original_draws_a_generated_scene(tmp_path: Path) -> None:
+    """A scene loaded from JSON drew no static ball (the simulator left it untextured); the build's edit draws it
+    black like the other statics, as the original's generated scenes (the published videos) do."""
+    from craft_dsl.reader.video import decode
+    from craft_dsl.render.raster import world_to_pixel
+
+    world = sample_world(13, 3)
+    OriginalSimulator().run(world, 2, video=tmp_path / "v.mpg")
+    first = decode(tmp_path / "v.mpg")[0]
+    balls = [b for b in world.bodies if b.shape == "static_ball"]
+    assert len(balls) == 3
+    for ball in balls:
+        x, y = world_to_pixel(*ball.position)
+        assert first[int(y), int(x)].max() < 60, (ball.position, first[int(y), int(x)])
+
+
+@needs_binary
 def test_skipping_the_drawing_changes_nothing_the_original_writes(tmp_path: Path) -> None:
     """Runs without a video skip drawing (the build's one speed edit): states and events are those of a run that
     draws and encodes every frame."""

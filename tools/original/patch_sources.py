@@ -6,8 +6,10 @@ Usage: patch_sources.py CRAFT_BOX2D_DIR VIDEO_WRITER_H
 CRAFT_BOX2D_DIR is the unpacked ``data_generation/2d/CRAFT-Box2D`` folder; VIDEO_WRITER_H is
 tools/original/VideoWriter.h. Each edit finds a short anchor, checks that it occurs exactly once
 and changes that spot only. Running it twice is harmless: an edit already made is skipped.
-None of the edits touches physics, events or what is drawn; one lets a caller that records no video skip drawing
-(the environment variable CRAFT_ORIGINAL_NO_DRAW), which saves most of a run's time and changes nothing it writes.
+None of the edits touches physics or events. One lets a caller that records no video skip drawing (the environment
+variable CRAFT_ORIGINAL_NO_DRAW), which saves most of a run's time and changes nothing it writes. One changes what is
+drawn, to match the simulator's own live path: a scene loaded from JSON draws its static balls, as a generated scene
+(the path that drew the published videos) does.
 """
 
 from __future__ import annotations
@@ -124,6 +126,27 @@ def skip_drawing_on_request(root: Path) -> str:
     return "Simulation.cpp, SimulationMain.cpp: draw, clear and swap skipped when CRAFT_ORIGINAL_NO_DRAW is set"
 
 
+STATIC_BALL_CASE = "case SimulationObject::STATIC_BALL:"
+
+
+def draw_static_balls_from_json(root: Path) -> str:
+    # A generated scene gives every static body the platform texture (SimulationBase.h). A scene loaded from JSON
+    # (ObjectState.h, the path craft_dsl drives) gives it to each static shape except the static ball, and with
+    # textures on, an untextured body draws nothing: its static balls were invisible, though they collide. The
+    # static ball joins the other static shapes' case, so both paths draw the same picture.
+    path = root / "Testbed/Tests/SVQA/ObjectState.h"
+    lines = _read(path)
+    if any(STATIC_BALL_CASE in line for line in lines):
+        return "ObjectState.h: static balls already textured"
+    at = _only_line(lines, "case SimulationObject::STATIC_BOTTOM_BOUNDARY:", path)
+    if "platformMat" not in lines[at + 1]:
+        raise PatchError("ObjectState.h: expected the platform texture right after the bottom boundary's case")
+    indent = lines[at][: len(lines[at]) - len(lines[at].lstrip())]
+    lines.insert(at + 1, indent + STATIC_BALL_CASE + "  // craft_dsl: drawn as in a generated scene\n")
+    _write(path, lines)
+    return "ObjectState.h: static balls get the platform texture, as in a generated scene"
+
+
 def replace_video_writer(root: Path, replacement: Path) -> str:
     # The original header uses the FFmpeg 4 encode API (avcodec_encode_video2), gone in FFmpeg 5.
     path = root / "Testbed/Framework/VideoWriter.h"
@@ -143,7 +166,8 @@ def main(argv: list[str]) -> int:
         return 2
     root, replacement = Path(argv[1]), Path(argv[2])
     try:
-        for edit in (include_cstring, load_glad_off_apple, full_size_window_off_apple, skip_drawing_on_request):
+        for edit in (include_cstring, load_glad_off_apple, full_size_window_off_apple, skip_drawing_on_request,
+                     draw_static_balls_from_json):
             print(edit(root))
         print(replace_video_writer(root, replacement))
     except PatchError as exc:
