@@ -8,7 +8,7 @@ the hard split, whose test scenes are unseen in its training part) and a questio
 (video_index, question_index, question) of each test question, exactly as ``craft-dsl read`` does.
 
 Measured (the benchmark, not the reader, then opens the ground truth: each video's simulation re-simulated from the
-seeds in ``questions/qa_<id6>.json``):
+seeds in ``questions/qa_<id6>.json`` with the engine that made the dataset, ``generation_config.json``):
 
 * accuracy per paper column, sub-category and template, for each split, beside the paper's rows (``craft-dsl score
   --compare-paper``);
@@ -97,7 +97,7 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
     answers = answer_questions(perception.scene, questions)
     answer_s = time.perf_counter() - t
     # -- ground truth (the benchmark's side) -------------------------------------------------------------------
-    sim = simulate(stats["scene"], seed=stats["simulation_seed"])
+    sim = simulate(stats["scene"], seed=stats["simulation_seed"], engine=stats["engine"])
     rec = perception.reconstruction
     true_world = sim.world_spec
     true_triples = {(b.shape, b.color, b.size): b.uid for b in true_world.bodies if b.dynamic}
@@ -123,7 +123,7 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
                 uid_map[b.uid] = b.uid
     errors = []
     tt, ot = sim.trajectory, rec.simulation.trajectory
-    for ours_uid, true_uid in uid_map.items():
+    for ours_uid, true_uid in uid_map.items() if tt is not None else ():  # the original writes no trajectory
         if ours_uid not in ot.ids or not ours_world.body(ours_uid).dynamic:
             continue
         a = ot.positions[1:, ot.column(ours_uid)]
@@ -169,6 +169,8 @@ def main() -> None:
     parser.add_argument("--generate", type=int, help="generate a dataset of this many videos first (into --out)")
     parser.add_argument("--seed", type=int, default=777001, help="seed of the generated dataset")
     parser.add_argument("--out", help="folder of the generated dataset")
+    parser.add_argument("--engine", default="pymunk",
+                        help="physics (and renderer) of the generated dataset: pymunk, box2d or original")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--limit", type=int, help="read only the first N test videos (a quick look)")
     parser.add_argument("--only", help="read only these video indices, e.g. 437,480-499 (development runs)")
@@ -180,7 +182,7 @@ def main() -> None:
         if not args.out:
             parser.error("--generate needs --out")
         cli_main(["generate", "--size", str(args.generate), "--seed", str(args.seed), "--videos", "--workers",
-                  str(args.workers), "--out", args.out, "--quiet"])
+                  str(args.workers), "--engine", args.engine, "--out", args.out, "--quiet"])
         root = Path(args.out)
     elif args.dataset:
         root = Path(args.dataset)
@@ -210,10 +212,12 @@ def main() -> None:
     if args.decoders:
         compare_decoders([paths[v] for v in videos[: args.decoders]])
         return
+    config = root / "generation_config.json"
+    engine = json.loads(config.read_text()).get("engine", "pymunk") if config.exists() else "pymunk"
     jobs = []
     for v in videos:
         stats = json.loads((root / "questions" / f"qa_{v:06d}.json").read_text())["stats"]
-        stats = {"scene": stats["scene"], "simulation_seed": stats["simulation_seed"],
+        stats = {"scene": stats["scene"], "simulation_seed": stats["simulation_seed"], "engine": engine,
                  "template_ids": {q.key: template[q.key] for q in by_video[v]}}
         jobs.append((str(paths[v]), by_video[v], stats, {q.key: truth[q.key] for q in by_video[v]}))
     load_before = os.getloadavg()

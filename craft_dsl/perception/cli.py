@@ -208,7 +208,9 @@ def _execution_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--counterfactual", default="replay", choices=_CF_MODES,
                    help="counterfactual runs: replayed against the tracks or re-simulated from the fitted start "
                         "(default replay)")
-    p.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES, help="physics engine (default pymunk)")
+    p.add_argument("--engine", default=None, choices=ENGINES,
+                   help="physics engine of the re-simulations (default: the one the scene names in its 'physics' "
+                        f"field, else {DEFAULT_ENGINE})")
     p.add_argument("--json", action="store_true", help="print JSON")
 
 

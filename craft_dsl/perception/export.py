@@ -9,7 +9,7 @@ recorded simulation (start and end states only) gives no tracks; its objects the
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -64,4 +64,14 @@ def export_perceived(sim: Simulation, fps: float = SIM_FPS, size: int = DEFAULT_
     meta = {"source": "ground truth", **{k: v for k, v in sim.meta.items() if isinstance(v, str | int | float)}}
     return PerceivedScene(schema_version=SCHEMA_VERSION, scene=_scene_id(sim),
                           video=VideoInfo(fps=fps, frames=int(rows.size), steps=sim.steps, width=size, height=size),
-                          objects=objects, events=events, meta=meta)
+                          objects=objects, events=events, physics=_physics(sim), meta=meta)
+
+
+def _physics(sim: Simulation) -> Literal["pymunk", "box2d"] | None:
+    """The engine of a live run (its counterfactuals re-simulate with it); None for a recorded simulation."""
+    name = getattr(getattr(sim, "engine", None), "name", None)
+    if name == "pymunk":
+        return "pymunk"
+    if name == "box2d":
+        return "box2d"
+    return None

@@ -14,7 +14,7 @@ raises :class:`~craft_dsl.errors.PerceptionError` naming object, frame and field
 from __future__ import annotations
 
 import json
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ModelWrapValidatorHandler, ValidationInfo, model_validator
 
@@ -118,6 +118,11 @@ class PerceivedScene(_Model):
     events: list[PerceivedEvent] | None = Field(
         default=None,
         description="the events seen; null or absent: the model gives none (they are derived from tracks)")
+    physics: Literal["pymunk", "box2d"] | None = Field(
+        default=None,
+        description="the physics engine whose runs reproduce the video best (a reader measures it against the "
+                    "frames); runs without an object are re-simulated with it. Null or absent: the executor's "
+                    "default (pymunk)")
     meta: dict[str, Any] = Field(default_factory=dict, description="free-form provenance")
 
     @model_validator(mode="wrap")

@@ -37,7 +37,7 @@ from ..physics.engine import PhysicsEngine, RawRun
 from ..physics.events import events_from_log
 from ..physics.live import LiveSimulation, clean_counterfactual, get_engine
 from ..simulation import Event, ObjectState, SimObject, Simulation, Trajectory
-from ..vocabulary import END, ENTER_BASKET, START, canonical_event_type
+from ..vocabulary import DEFAULT_ENGINE, END, ENTER_BASKET, START, canonical_event_type
 from .coords import event_step, frame_rows, metres_per_pixel
 from .events import CONTACT_TOLERANCE, RowStates, StepEvent, derive_log, derived_event_tolerance, log_from_events
 from .fit import Drift, PhysicsWorld, build_world, drift, fit_start, refine_start, row_states
@@ -62,7 +62,7 @@ class ExecutionOptions:
 
     events: EventSource = "auto"
     counterfactual: CounterfactualMode = "replay"
-    engine: str = "pymunk"
+    engine: str | None = None  # None: the engine the scene names (``PerceivedScene.physics``), else pymunk
     refine: bool = False
     tolerance: float | None = None
 
@@ -113,7 +113,7 @@ class SceneModel:
 
     @cached_property
     def engine(self) -> PhysicsEngine:
-        return get_engine(self.options.engine)
+        return get_engine(self.options.engine or self.scene.physics or DEFAULT_ENGINE)
 
     @property
     def basket_ids(self) -> set[int]:

@@ -25,7 +25,7 @@ from ..world import WorldSpec
 from .detect import blobs, grid_labels, grid_rims
 from .layout import StaticFit, fit_layout
 from .layout_model import layout_model
-from .reconstruct import START_FRAMES, Reconstruction, fit_frames, reconstruct
+from .reconstruct import START_FRAMES, Reconstruction, fit_frames, reconstruct_best
 from .track import (
     TrackedObject,
     classify_shape,
@@ -50,9 +50,11 @@ class Perception:
     timings: dict[str, float] = field(default_factory=dict)
 
 
-def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[str, float] | None = None
-                    ) -> Perception:
-    """Perceive decoded frames uint8 [T, H, W, 3] (``scene``: skip the identification)."""
+def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[str, float] | None = None,
+                    engines: Sequence[str] | None = None) -> Perception:
+    """Perceive decoded frames uint8 [T, H, W, 3] (``scene``: skip the identification). ``engines``: the physics
+    engines to reconstruct the motion with (default :func:`~craft_dsl.reader.reconstruct.reader_engines`); the
+    reconstruction that follows the frames best is kept (:func:`~craft_dsl.reader.reconstruct.reconstruct_best`)."""
     times = timings if timings is not None else {}
     t = time.perf_counter()
     layout = fit_layout(frames, scene=scene)
@@ -73,7 +75,8 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
         measure_frames(obj, frames, background, which)
         refine_frames(obj, frames, background, which, shape, size)
 
-    rec = reconstruct(model, layout.values, objects, len(frames), steps=len(frames), measure=measure)
+    rec = reconstruct_best(model, layout.values, objects, len(frames), steps=len(frames), engines=engines,
+                           measure=measure)
     times["reconstruct"] = time.perf_counter() - t
     perceived = to_perceived(rec, objects, layout)
     return Perception(perceived, layout, objects, rec, times)
@@ -104,7 +107,9 @@ def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: Stat
         extra = probs.get(o.id)
         objs.append(o.model_copy(update=extra) if extra else o)
     meta = {"source": "craft_dsl.reader", "layout_rms": round(layout.rms, 3), "fit_frames": rec.fit_frames,
-            "refits": rec.refits, "max_stray_px": round(max(rec.stray_px.values(), default=0.0), 3)}
+            "refits": rec.refits, "anchors": rec.anchors,
+            "max_stray_px": round(max(rec.stray_px.values(), default=0.0), 3), "mean_stray_px": round(rec.final_px, 3),
+            "engines_tried": list(rec.tried)}
     return scene.model_copy(update={"objects": objs, "meta": meta})
 
 
@@ -126,10 +131,11 @@ def _with_mode(dist: dict[str, float], mode: str) -> dict[str, float]:
     return rounded
 
 
-def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scene: int | None = None) -> Perception:
-    """Perceive a video file (see the module docstring)."""
+def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scene: int | None = None,
+                   engines: Sequence[str] | None = None) -> Perception:
+    """Perceive a video file (see the module docstring and :func:`perceive_frames`)."""
     timings: dict[str, float] = {}
     t = time.perf_counter()
     frames = decode(path, decoder)
     timings["decode"] = time.perf_counter() - t
-    return perceive_frames(frames, scene, timings)
+    return perceive_frames(frames, scene, timings, engines)
