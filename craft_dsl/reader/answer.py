@@ -3,20 +3,24 @@
 The reader sees a questions file and video files only. Of each question record it reads ``video_index``,
 ``question_index`` and ``question`` (the text): never a program, template id, answer or simulation. The question's
 program comes from its text (:func:`craft_dsl.question_parsing.question_to_program`); the video is found by its
-index written in six digits (``<id6>.mpg`` or ``.mp4`` anywhere under the videos folder; folder names, which
-hold the scene id in the published layout, are not read).
+index written in six digits (``<id6>.mpg``, ``.mp4``, ... anywhere under the videos folders, or a file given by
+path; folder names, which hold the scene id in the published layout, are not read), or named in a mapping file
+(:func:`read_video_map`).
 """
 
 from __future__ import annotations
 
+import csv
+import io
 import os
-from collections.abc import Mapping, Sequence
+import re
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from ..errors import CraftError, ReaderError
-from ..files import read_json
+from ..files import read_json, read_text
 from ..perception.distribution import answer_distributions
 from ..perception.schema import PerceivedScene
 from ..perception.world import SceneModel
@@ -24,7 +28,10 @@ from ..program import Program, to_json
 from ..question_parsing import question_to_program
 from ..types import DslType
 
-VIDEO_SUFFIXES = (".mpg", ".mp4")
+#: The containers a video may come in (every one PyAV decodes); of several files of one index, ``.mpg`` is taken.
+VIDEO_SUFFIXES = (".mpg", ".mpeg", ".mp4", ".avi", ".mkv", ".webm", ".mov")
+#: The header line of a CSV mapping file.
+VIDEO_MAP_HEADER = ("video_index", "path")
 
 
 @dataclass(frozen=True)
@@ -96,25 +103,147 @@ def read_questions(path: str | os.PathLike[str]) -> list[Question]:
     return out
 
 
-def find_videos(folder: str | os.PathLike[str], indices: Sequence[int]) -> dict[int, Path]:
-    """The video file of each index (``<id6>.mpg`` or ``.mp4`` anywhere under ``folder``)."""
-    root = Path(folder)
-    if not root.is_dir():
-        raise ReaderError(f"--videos {root}: no such folder")
-    by_stem: dict[str, list[Path]] = {}
-    for f in root.rglob("*"):
-        if f.suffix.lower() in VIDEO_SUFFIXES and f.is_file():
-            by_stem.setdefault(f.stem, []).append(f)
-    out = {}
+VideoSources = str | os.PathLike[str] | Sequence[str | os.PathLike[str]]
+_INDEX = re.compile(r"[0-9]+")
+
+
+def _suffixes() -> str:
+    return f"{', '.join(VIDEO_SUFFIXES[:-1])} or {VIDEO_SUFFIXES[-1]}"
+
+
+def _mapped_file(path_text: str, base: Path, where: str) -> Path:
+    """The file a mapping entry names (relative to the mapping file's folder ``base``), which must exist."""
+    target = base / path_text
+    if target.is_dir():
+        raise ReaderError(f"{where}: {target} is a folder; expected a video file")
+    if not target.is_file():
+        raise ReaderError(f"{where}: no such file {target} (a relative path is read from the folder of the "
+                          f"mapping file, {base})")
+    return target
+
+
+def _map_index(text: str, where: str) -> int:
+    if not _INDEX.fullmatch(text):
+        raise ReaderError(f"{where}: video_index {text!r} is not a whole number; expected digits such as 12 or "
+                          "000012")
+    return int(text)
+
+
+def read_video_map(path: str | os.PathLike[str]) -> dict[int, Path]:
+    """The video file of each index a mapping file names: CSV with the header ``video_index,path`` (paths with a
+    comma quoted), or JSON ``{"<video_index>": "path"}`` (a ``.json`` file). A relative path is relative to the
+    mapping file's folder; every file named must exist, and each index may be named once."""
+    p = Path(path)
+    base = p.parent
+    out: dict[int, Path] = {}
+    if p.suffix.lower() == ".json":
+        data = read_json(p, "video mapping file")
+        if not isinstance(data, dict):
+            raise ReaderError(f"--video-map {p}: expected a JSON object {{\"<video_index>\": \"path\", ...}}, got "
+                              f"{type(data).__name__}")
+        keys: dict[int, str] = {}
+        for key, value in data.items():
+            where = f"--video-map {p}: key {key!r}"
+            index = _map_index(key, where)
+            if index in keys:
+                raise ReaderError(f"{where}: names video_index {index}, as key {keys[index]!r} does; each "
+                                  "video_index may be mapped once")
+            if not isinstance(value, str) or not value.strip():
+                raise ReaderError(f"{where}: expected the video's path as a string, got {value!r}")
+            keys[index] = key
+            out[index] = _mapped_file(value.strip(), base, where)
+        return out
+    text = read_text(p, "video mapping file")
+    rows = csv.reader(io.StringIO(text, newline=""))
+    header = next(rows, None)
+    if header is None:
+        raise ReaderError(f"--video-map {p}: the file is empty; expected the header line video_index,path, then "
+                          "one line per video (or a .json file {\"<video_index>\": \"path\"})")
+    if tuple(c.strip() for c in header) != VIDEO_MAP_HEADER:
+        raise ReaderError(f"--video-map {p}: line 1: header {','.join(header)!r}; expected video_index,path (a CSV "
+                          "file; a JSON mapping needs the .json extension)")
+    lines: dict[int, int] = {}
+    for row in rows:
+        if not row or (len(row) == 1 and not row[0].strip()):
+            continue  # a blank line
+        where = f"--video-map {p}: line {rows.line_num}"
+        if len(row) != 2:
+            raise ReaderError(f"{where}: {len(row)} fields; expected 2, video_index,path (quote a path that holds "
+                              "a comma)")
+        index = _map_index(row[0].strip(), where)
+        if index in lines:
+            raise ReaderError(f"{where}: video_index {index} is mapped again (first on line {lines[index]}); each "
+                              "video_index may be mapped once")
+        if not row[1].strip():
+            raise ReaderError(f"{where}: the path is empty; expected the video's path")
+        lines[index] = rows.line_num
+        out[index] = _mapped_file(row[1].strip(), base, where)
+    return out
+
+
+def _listed(paths: Sequence[Path], most: int = 3) -> str:
+    shown = ", ".join(map(str, paths[:most]))
+    return shown if len(paths) <= most else f"{shown} and {len(paths) - most} more"
+
+
+def find_videos(sources: VideoSources, indices: Sequence[int],
+                video_map: str | os.PathLike[str] | None = None) -> dict[int, Path]:
+    """The video file of each index: the one ``video_map`` names (:func:`read_video_map`), else ``<id6>`` with a
+    suffix of :data:`VIDEO_SUFFIXES` anywhere under the folders of ``sources`` or among its files. Of several files
+    of one index with different suffixes the ``.mpg`` is taken; other ties are refused, naming the files."""
+    given = [sources] if isinstance(sources, (str, os.PathLike)) else list(sources)
+    folders: list[Path] = []
+    files: list[Path] = []
+    by_stem: dict[str, dict[Path, Path]] = {}  # stem -> {resolved: as found}
+    for source in given:
+        p = Path(source)
+        found: Iterable[Path]
+        if p.is_dir():
+            folders.append(p)
+            found = (f for f in p.rglob("*") if f.suffix.lower() in VIDEO_SUFFIXES and f.is_file())
+        elif p.is_file():
+            if p.suffix.lower() not in VIDEO_SUFFIXES or not _INDEX.fullmatch(p.stem):
+                raise ReaderError(f"--videos {p}: a video given by path is named by its video_index in six digits "
+                                  f"with the suffix {_suffixes()} (e.g. 000012.mkv); name other files in a "
+                                  "--video-map file")
+            files.append(p)
+            found = [p]
+        else:
+            raise ReaderError(f"--videos {p}: no such folder or file")
+        for f in found:
+            by_stem.setdefault(f.stem, {}).setdefault(f.resolve(), f)
+    mapped = read_video_map(video_map) if video_map is not None else {}
+    out: dict[int, Path] = {}
+    missing: list[int] = []
     for index in indices:
-        found = sorted(by_stem.get(f"{index:06d}", []))
-        if not found:
-            raise ReaderError(f"no video for video_index {index}: expected {index:06d}.mpg (or .mp4) under {root}")
-        if len(found) > 1 and len({f.suffix.lower() for f in found}) == len(found):
-            found = [f for f in found if f.suffix.lower() == ".mpg"] or found
-        if len(found) > 1:
-            raise ReaderError(f"video_index {index}: several files under {root}: {', '.join(map(str, found))}")
-        out[index] = found[0]
+        if index in mapped:
+            out[index] = mapped[index]
+            continue
+        candidates = sorted(by_stem.get(f"{index:06d}", {}).values())
+        if not candidates:
+            missing.append(index)
+            continue
+        if len(candidates) > 1 and len({f.suffix.lower() for f in candidates}) == len(candidates):
+            candidates = [f for f in candidates if f.suffix.lower() == ".mpg"] or candidates
+        if len(candidates) > 1:
+            raise ReaderError(f"video_index {index}: several files: {', '.join(map(str, candidates))}; keep one, or "
+                              "name the one to read in a --video-map file")
+        out[index] = candidates[0]
+    if missing:
+        index = missing[0]
+        tried = []
+        if folders:
+            tried.append(f"{index:06d} with the suffix {_suffixes()} under {_listed(folders)} (searched "
+                         "recursively)")
+        if files:
+            tried.append(f"the files given ({_listed(files)})")
+        if video_map is not None:
+            tried.append(f"--video-map {video_map} (no entry {index})")
+        others = "" if len(missing) == 1 else \
+            f"; {len(missing) - 1} other indices have no video either: {', '.join(map(str, missing[1:6]))}" + \
+            (", ..." if len(missing) > 6 else "")
+        raise ReaderError(f"no video for video_index {index}: tried {'; '.join(tried) or 'nothing (no --videos)'}"
+                          f"{others}")
     return out
 
 
