@@ -1,8 +1,11 @@
 """``craft-dsl read``: answer CRAFT questions from the videos and the question texts alone (docs/reader.md).
 
-Predictions go to ``--out`` (``{"<video_index>_<question_index>": answer}``, what ``craft-dsl score`` reads), written
-atomically once every video is done; progress and messages go to stderr. A video that cannot be read is reported
-(``error: ...``), its questions are left out, the others are still written, and the exit code is 2.
+Predictions go to ``--out`` (``{"<video_index>_<question_index>": answer}``, what ``craft-dsl score`` reads). Each
+finished video's answers are first made durable in a journal beside it (:mod:`craft_dsl.reader.runs`); ``--out``
+and ``--details`` are written atomically from the journal once every video is done, the same bytes for any
+``--workers`` and whether or not the run was interrupted and resumed. Progress and messages go to stderr. A video
+that cannot be read, or whose reading raises, is reported (``error: ...``), its questions are left out, the others
+are still written, and the exit code is 2.
 """
 
 from __future__ import annotations
@@ -12,7 +15,6 @@ import json
 import sys
 import time
 from collections import defaultdict
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -43,63 +45,117 @@ def read_video(path: str, questions: list[Question], decoder: str = "auto", dist
             "timings": {**perception.timings, "perception": perceived - t, "answering": done - perceived}}
 
 
-def cmd_read(args: argparse.Namespace) -> int:
-    from .answer import find_videos, read_questions
+def _check_outputs(args: argparse.Namespace) -> None:
+    """Refuse output paths that could only fail once every video is read."""
+    for option, value in (("--out", args.out), ("--details", args.details)):
+        if value and Path(value).is_dir():
+            raise ReaderError(f"{option} {value}: is a folder; expected a file to write")
+    if args.details and Path(args.details).resolve() == Path(args.out).resolve():
+        raise ReaderError(f"--details {args.details}: the same file as --out; give another")
+    if args.perceived and Path(args.perceived).exists() and not Path(args.perceived).is_dir():
+        raise ReaderError(f"--perceived {args.perceived}: is a file; expected a folder")
 
+
+def _perceived_file(folder: str, index: int) -> Path:
+    return Path(folder) / f"{index:06d}.json"
+
+
+def _resumable(record: dict[str, Any], perceived: str | None) -> bool:
+    """Whether a journal record stands for its video: with ``--perceived``, only if that video's scene file is there,
+    as the record's run wrote it."""
+    if perceived is None:
+        return True
+    from .runs import text_digest
+
+    try:
+        text = _perceived_file(perceived, record["video"]).read_text(encoding="utf-8")
+    except (OSError, UnicodeError):
+        return False
+    return record.get("perceived") == text_digest(text)
+
+
+def cmd_read(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from .answer import find_videos, read_questions
+    from .runs import Journal, journal_path, run_header, run_tasks, text_digest
+
+    if not args.videos and not args.video_map:
+        raise ReaderError("give the videos: --videos FOLDER_OR_FILE ... and/or --video-map FILE")
+    _check_outputs(args)
     questions = read_questions(args.questions)
     by_video: dict[int, list[Question]] = defaultdict(list)
     for q in questions:
         by_video[q.video_index].append(q)
-    videos = find_videos(args.videos, sorted(by_video))
-    if args.workers < 1:
-        raise ReaderError(f"--workers must be at least 1, got {args.workers}")
-    jobs = [(str(videos[v]), by_video[v], args.decoder, args.distribution, args.samples) for v in sorted(by_video)]
-    workers = min(args.workers, len(jobs))  # no process without a video to read
-    results: list[dict[str, Any]] = []
-    from tqdm import tqdm
+    order = sorted(by_video)
+    videos = find_videos(args.videos or [], order, args.video_map)
+    header = run_header(((q.video_index, q.question_index, q.text) for q in questions), videos,
+                        {"distribution": args.distribution, "samples": args.samples, "decoder": args.decoder})
+    failed: dict[int, str] = {}
 
-    bar = tqdm(total=len(jobs), unit="video", desc="reading", disable=args.quiet, file=sys.stderr)
-    try:
-        if workers <= 1:
-            for job in jobs:
-                results.append(read_video(*job))
-                bar.update(1)
-        else:  # results in the videos' order, whatever the order they finish in: the same files for any --workers
-            with ProcessPoolExecutor(max_workers=workers) as pool:
-                for result in pool.map(read_video, *zip(*jobs)):
-                    results.append(result)
-                    bar.update(1)
-    finally:
-        bar.close()
-    predictions: dict[str, str | None] = {}
-    details: list[dict[str, Any]] = []
-    failed = []
-    perception_s = []
-    for result in results:
-        if "error" in result:
-            failed.append(result["error"])
-            continue
-        answers: list[Answer] = result["answers"]
-        for a in answers:
-            predictions[a.question.key] = a.answer
-            details.append(a.to_json())
-        perception_s.append(result["timings"]["perception"])
-        if args.perceived:
-            stem = Path(result["path"]).stem
-            with atomic_path(Path(args.perceived) / f"{stem}.json") as tmp:
-                tmp.write_text(result["scene"], encoding="utf-8")
-    write_json_atomic(predictions, args.out)
-    if args.details:
-        with atomic_path(args.details) as tmp:
-            tmp.write_text("".join(json.dumps(d) + "\n" for d in details), encoding="utf-8")
+    def report(message: str) -> None:
+        tqdm.write(message, file=sys.stderr)
+
+    with Journal.open(journal_path(args.out), header) as journal:
+        if journal.dropped_line is not None and not args.quiet:
+            report(f"{journal.path}: line {journal.dropped_line} was cut short (the run was stopped while writing "
+                   "it): dropped, its video is read again")
+        done = {v for v, record in journal.records.items() if v in by_video and _resumable(record, args.perceived)}
+        if done and not args.quiet:
+            report(f"resuming {journal.path}: {len(done)} of {len(order)} videos already read")
+        jobs = [(v, (str(videos[v]), by_video[v], args.decoder, args.distribution, args.samples))
+                for v in order if v not in done]
+
+        def finished(index: int, result: dict[str, Any]) -> None:
+            if "error" in result:
+                failed[index] = result["error"]
+                report(f"error: {result['error']}")
+            else:
+                answers: list[Answer] = result["answers"]
+                record: dict[str, Any] = {"video": index, "path": result["path"],
+                                          "details": [a.to_json() for a in answers],
+                                          "perception_s": round(result["timings"]["perception"], 3)}
+                if args.perceived:  # the file first: a record in the journal means its file is written
+                    with atomic_path(_perceived_file(args.perceived, index)) as tmp:
+                        tmp.write_text(result["scene"], encoding="utf-8")
+                    record["perceived"] = text_digest(result["scene"])
+                journal.add(record)
+            bar.update(1)
+
+        def crashed(index: int, message: str) -> None:
+            failed[index] = f"video {index} ({videos[index]}): {message}"
+            report(f"error: {failed[index]}")
+            bar.update(1)
+
+        bar = tqdm(total=len(order), initial=len(done), unit="video", desc="reading", disable=args.quiet,
+                   file=sys.stderr, dynamic_ncols=True)
+        try:
+            # one video left is read here: no process to start
+            run_tasks(read_video, jobs, min(args.workers, len(jobs)), finished, crashed)
+        finally:
+            bar.close()
+        predictions: dict[str, str | None] = {}
+        details: list[dict[str, Any]] = []
+        perception_s = []
+        for v in order:
+            if v in failed or v not in journal.records:
+                continue
+            record = journal.records[v]
+            for d in record["details"]:
+                predictions[f"{d['video_index']}_{d['question_index']}"] = d["answer"]
+                details.append(d)
+            perception_s.append(record.get("perception_s", 0.0))
+        write_json_atomic(predictions, args.out)
+        if args.details:
+            with atomic_path(args.details) as tmp:
+                tmp.write_text("".join(json.dumps(d) + "\n" for d in details), encoding="utf-8")
+        journal.remove()
     unanswered = sum(1 for v in predictions.values() if v is None)
     if not args.quiet:
         mean = sum(perception_s) / len(perception_s) if perception_s else 0.0
-        read = len(results) - len(failed)
-        print(f"wrote {args.out}: {len(predictions)} answers ({unanswered} unanswered) from {read} videos; "
-              f"perception {mean:.2f} s per video", file=sys.stderr)
-    for message in failed:
-        print(f"error: {message}", file=sys.stderr)
+        print(f"wrote {args.out}: {len(predictions)} answers ({unanswered} unanswered) from {len(perception_s)} "
+              f"videos; perception {mean:.2f} s per video"
+              + (f"; {len(failed)} videos failed (errors above)" if failed else ""), file=sys.stderr)
     return 2 if failed else 0
 
 
@@ -111,11 +167,20 @@ def add_commands(sub: Any) -> None:
                     "question's program from its text and answer it. Reads only the video files and the question "
                     "texts (video_index, question_index, question of each record).",
     )
-    p.add_argument("--videos", required=True, help="folder holding <id6>.mpg (or .mp4) videos, searched recursively")
+    p.add_argument("--videos", nargs="+", metavar="PATH",
+                   help="folders holding <id6>.mpg (.mpeg, .mp4, .avi, .mkv, .webm, .mov) videos, searched "
+                        "recursively, and/or such video files (default: none; then --video-map names them all)")
+    p.add_argument("--video-map", metavar="FILE",
+                   help="CSV with the header video_index,path, or JSON {\"<video_index>\": \"path\"}: the video of "
+                        "each index, for names that are not the index (relative paths from the file's folder; "
+                        "default: none)")
     p.add_argument("--questions", required=True, help="dataset_minimal.json (or any list of question records)")
-    p.add_argument("--out", required=True, help='predictions JSON: {"<video_index>_<question_index>": answer}')
+    p.add_argument("--out", required=True,
+                   help='predictions JSON: {"<video_index>_<question_index>": answer}; until it is written, '
+                        '<out>.partial.jsonl journals the finished videos, and the same command resumes from it')
     add_workers_option(p, "worker processes (one video at a time each); the output is identical for any number")
-    p.add_argument("--perceived", help="also write each video's PerceivedScene JSON into this folder (default: none)")
+    p.add_argument("--perceived", help="also write each video's PerceivedScene JSON (<id6>.json) into this folder "
+                                       "(default: none)")
     p.add_argument("--details", help="also write one JSON line per question (answer, probability, program, error) "
                                      "to this file (default: none)")
     p.add_argument("--distribution", action="store_true",

@@ -1,0 +1,387 @@
+"""Runs of ``craft-dsl read`` that survive interruption: a journal of the finished videos, and worker processes that
+stop at once on Ctrl-C.
+
+The journal (``<out>.partial.jsonl``, beside ``--out``) is JSON Lines: a header naming the run's inputs (digests of
+the questions and of the resolved video list, and the options that change answers), then one record per finished
+video, flushed and fsynced before the next. The same command resumes from it; a journal of other inputs is refused,
+never mixed in; a last line cut short by a kill is dropped, and its video read again. While a run holds a journal,
+another run on it is refused (a lock on the file, where the system has ``fcntl``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from multiprocessing.connection import Connection, wait
+from pathlib import Path
+from types import FrameType, TracebackType
+from typing import IO, Any
+
+from ..errors import ReaderError
+
+#: What the journal's name adds to ``--out``'s.
+JOURNAL_SUFFIX = ".partial.jsonl"
+JOURNAL_KIND = "craft-dsl read"
+JOURNAL_VERSION = 1
+#: Tasks queued per worker process beyond the one it runs.
+QUEUED_PER_WORKER = 1
+#: Packages that call Python from C (pymunk through cffi, Box2D through SWIG): an exception raised in such a
+#: callback is printed and swallowed there, so Ctrl-C is not raised while one runs (:func:`ctrl_c_outside_callbacks`).
+CALLBACK_PACKAGES = ("pymunk", "Box2D")
+
+#: One unit of work: a key (a video index) and the arguments of the function run on it.
+Task = tuple[int, tuple[Any, ...]]
+
+
+def journal_path(out: str | os.PathLike[str]) -> Path:
+    """The journal of the run writing ``out``."""
+    return Path(f"{os.fspath(out)}{JOURNAL_SUFFIX}")
+
+
+def _digest(value: Any) -> str:
+    return hashlib.sha256(json.dumps(value, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
+def text_digest(text: str) -> str:
+    """The SHA-256 of ``text`` in UTF-8, in hex."""
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def run_header(questions: Iterable[tuple[int, int, str]], videos: Mapping[int, Path],
+               options: Mapping[str, Any]) -> dict[str, Any]:
+    """The journal header of a run: digests of its questions ``(video_index, question_index, text)`` and of its
+    videos (index, resolved path, size), and the options (``{"samples": 64, ...}``) that change its answers."""
+    listed = []
+    for index, path in sorted(videos.items()):
+        try:
+            size = path.stat().st_size
+        except OSError:
+            size = None
+        listed.append([index, str(path.resolve()), size])
+    return {"journal": JOURNAL_KIND, "version": JOURNAL_VERSION, "questions": _digest(list(questions)),
+            "videos": _digest(listed), "options": dict(options)}
+
+
+def _differences(found: Mapping[str, Any], expected: Mapping[str, Any]) -> list[str]:
+    out = []
+    if found.get("questions") != expected["questions"]:
+        out.append("other questions")
+    if found.get("videos") != expected["videos"]:
+        out.append("other videos")
+    options = found.get("options")
+    theirs: Mapping[str, Any] = options if isinstance(options, dict) else {}
+    for name, value in expected["options"].items():
+        if theirs.get(name) != value:
+            out.append(f"--{name} {theirs.get(name)} there, {value} here")
+    return out
+
+
+def _lock(fh: IO[bytes], path: Path) -> None:
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows: no lock
+        return
+    try:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        fh.close()
+        raise ReaderError(f"{path}: another craft-dsl read is writing this journal (a run with the same --out); "
+                          "wait for it to end, or give another --out") from None
+
+
+def _record(line: bytes) -> dict[str, Any] | None:
+    """A journal line read as a finished video's record, or None if it is not one."""
+    try:
+        value = json.loads(line)
+    except ValueError:
+        return None
+    if not isinstance(value, dict) or isinstance(value.get("video"), bool) or not isinstance(value.get("video"), int) \
+            or not isinstance(value.get("details"), list):
+        return None
+    return value
+
+
+class Journal:
+    """The journal of a run, open for appending: :attr:`records` holds the finished videos' records by index (those
+    read back from an earlier run, then those added); :attr:`dropped_line` is the number of a last line dropped as cut
+    short (None if there was none)."""
+
+    def __init__(self, path: Path, fh: IO[bytes], records: dict[int, dict[str, Any]],
+                 dropped_line: int | None) -> None:
+        self.path = path
+        self._fh = fh
+        self.records = records
+        self.dropped_line = dropped_line
+
+    @classmethod
+    def open(cls, path: str | os.PathLike[str], header: Mapping[str, Any]) -> Journal:
+        """Resume the journal at ``path`` if it is one of the run ``header`` describes (refuse it if it is of
+        another run), or start it."""
+        target = Path(path)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            fh = open(target, "a+b")  # noqa: SIM115 - held open for the run; closed by close()
+        except OSError as err:
+            raise ReaderError(f"{target}: cannot write the run's journal: {err.strerror or err}") from None
+        _lock(fh, target)
+        try:
+            fh.seek(0)
+            lines = fh.read().split(b"\n")
+            records: dict[int, dict[str, Any]] = {}
+            dropped: int | None = None
+            keep = 0  # bytes of the file kept
+            if len(lines) < 2:  # empty, or the header cut short: nothing was finished
+                start = json.dumps({"journal": JOURNAL_KIND}).encode()[:-1]
+                if not (start.startswith(lines[0]) or lines[0].startswith(start)):
+                    raise ReaderError(f"{target}: not a journal of craft-dsl read; move it away or give another "
+                                      "--out")
+                fh.truncate(0)
+                fh.write((json.dumps(dict(header)) + "\n").encode())
+                _sync(fh)
+                return cls(target, fh, records, None)
+            try:
+                found = json.loads(lines[0])
+            except ValueError:
+                found = None
+            if not isinstance(found, dict) or found.get("journal") != JOURNAL_KIND:
+                raise ReaderError(f"{target}: not a journal of craft-dsl read (its first line is not one's header); "
+                                  "move it away or give another --out")
+            if found.get("version") != JOURNAL_VERSION:
+                raise ReaderError(f"{target}: a journal of version {found.get('version')!r}, this craft-dsl writes "
+                                  f"version {JOURNAL_VERSION}; delete it to start afresh")
+            differences = _differences(found, header)
+            if differences:
+                raise ReaderError(f"{target}: the journal of another run ({'; '.join(differences)}); it is not mixed "
+                                  "into this one: run the command that wrote it to finish that run, or delete it to "
+                                  "start afresh")
+            keep = len(lines[0]) + 1
+            complete, tail = lines[1:-1], lines[-1]
+            for number, line in enumerate(complete, start=2):
+                record = _record(line)
+                if record is None:
+                    if number == len(complete) + 1 and not tail:  # the last line: cut short by a crash
+                        dropped = number
+                        break
+                    raise ReaderError(f"{target}: line {number} is not the record of a finished video (a JSON object "
+                                      "with video and details); the journal is damaged: delete it to start afresh")
+                records[record["video"]] = record
+                keep += len(line) + 1
+            if tail:  # a line without its end: the run was killed while writing it
+                dropped = len(complete) + 2
+            if dropped is not None:
+                fh.truncate(keep)
+                _sync(fh)
+            return cls(target, fh, records, dropped)
+        except BaseException:
+            fh.close()
+            raise
+
+    def add(self, record: dict[str, Any]) -> None:
+        """Append a finished video's record (``video``: its index, ``details``: its answers' records) and make it
+        durable before returning."""
+        self._fh.write((json.dumps(record, separators=(",", ":")) + "\n").encode())
+        _sync(self._fh)
+        self.records[record["video"]] = record
+
+    def close(self) -> None:
+        self._fh.close()
+
+    def remove(self) -> None:
+        """Close and delete the journal (its run's files are written)."""
+        self.close()
+        self.path.unlink(missing_ok=True)
+
+    def __enter__(self) -> Journal:
+        return self
+
+    def __exit__(self, kind: type[BaseException] | None, err: BaseException | None, tb: TracebackType | None) -> None:
+        if not self._fh.closed:
+            self.close()
+
+
+def _sync(fh: IO[bytes]) -> None:
+    fh.flush()
+    os.fsync(fh.fileno())
+
+
+# -- running the videos ------------------------------------------------------------------------------------------
+
+
+def describe(err: BaseException) -> str:
+    """``ExceptionType: message``."""
+    return f"{type(err).__name__}: {err}"
+
+
+def _in_callback(frame: FrameType | None) -> bool:
+    """Whether Python code is running inside a call from one of :data:`CALLBACK_PACKAGES` (its frames are on the
+    stack)."""
+    roots = []
+    for name in CALLBACK_PACKAGES:
+        module = sys.modules.get(name)
+        where = getattr(module, "__file__", None)
+        if where:
+            roots.append(os.path.dirname(where) + os.sep)
+    while roots and frame is not None:
+        if frame.f_code.co_filename.startswith(tuple(roots)):
+            return True
+        frame = frame.f_back
+    return False
+
+
+@contextmanager
+def ctrl_c_outside_callbacks(retry_s: float = 0.02) -> Iterator[None]:
+    """Within the block, Ctrl-C raises KeyboardInterrupt only where it would not be swallowed: one that lands while a
+    physics engine runs a Python callback is raised ``retry_s`` later, outside it. Only in the main thread, and only
+    where Ctrl-C raises KeyboardInterrupt (not where it is ignored)."""
+    if threading.current_thread() is not threading.main_thread() or \
+            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        yield
+        return
+
+    main = threading.main_thread().ident
+
+    def again() -> None:  # to the main thread itself, which a blocking call (a sleep, a wait) then returns from
+        if hasattr(signal, "pthread_kill") and main is not None:
+            signal.pthread_kill(main, signal.SIGINT)
+        else:  # pragma: no cover - Windows
+            signal.raise_signal(signal.SIGINT)
+
+    def on_ctrl_c(signum: int, frame: FrameType | None) -> None:
+        if _in_callback(frame):
+            timer = threading.Timer(retry_s, again)
+            timer.daemon = True
+            timer.start()
+            return
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGINT, on_ctrl_c)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def run_tasks(fn: Callable[..., Any], tasks: Sequence[Task], workers: int, on_result: Callable[[int, Any], None],
+              on_failure: Callable[[int, str], None]) -> None:
+    """Run ``fn(*args)`` for each ``(key, args)`` of ``tasks``; ``on_result(key, value)``, or ``on_failure(key,
+    "ExceptionType: message")`` where it raised, is called in this thread as each finishes. With one worker the tasks
+    run in this process, in order; with more, in that many processes (``spawn``; ``fn`` is found by its module and
+    name) that ignore Ctrl-C and die with this process: a KeyboardInterrupt here stops them at once."""
+    if not tasks:
+        return
+    if workers <= 1:
+        with ctrl_c_outside_callbacks():
+            for key, args in tasks:
+                try:
+                    value = fn(*args)
+                except Exception as err:  # noqa: BLE001 - reported for this task; the others go on
+                    on_failure(key, describe(err))
+                    continue
+                on_result(key, value)
+        return
+    _run_pool(fn, deque(tasks), min(workers, len(tasks)), on_result, on_failure)
+
+
+def _worker_main(conn: Connection, parent: int, fn: Callable[..., Any]) -> None:
+    """A worker process: run the tasks received on ``conn`` until it closes."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    from ..dataset.executors import _die_with_parent
+
+    _die_with_parent(parent)
+    while True:
+        try:
+            task = conn.recv()
+        except (EOFError, OSError):
+            return
+        if task is None:
+            return
+        key, args = task
+        try:
+            message: tuple[Any, ...] = ("ok", key, fn(*args))
+        except Exception as err:  # noqa: BLE001 - reported to the main process, which goes on with the others
+            message = ("error", key, describe(err))
+        try:
+            conn.send(message)
+        except (EOFError, OSError):
+            return
+        except Exception as err:  # noqa: BLE001 - a result that cannot be sent (pickled)
+            conn.send(("error", key, describe(err)))
+
+
+class _Worker:
+    def __init__(self, ctx: Any, fn: Callable[..., Any]) -> None:
+        self.conn, child = ctx.Pipe()
+        self.process = ctx.Process(target=_worker_main, args=(child, os.getpid(), fn), daemon=True,
+                                   name="craft-dsl read worker")
+        self.process.start()
+        child.close()
+        self.queued: deque[Task] = deque()
+
+    def feed(self, todo: deque[Task]) -> None:
+        while todo and len(self.queued) <= QUEUED_PER_WORKER:
+            task = todo.popleft()
+            self.conn.send(task)
+            self.queued.append(task)
+
+    def stop(self) -> None:
+        if self.process.is_alive():
+            self.process.kill()
+        self.process.join(timeout=5)
+        self.conn.close()
+
+
+def _start(ctx: Any, fn: Callable[..., Any], n: int) -> list[_Worker]:
+    # started with Ctrl-C ignored, which the spawned interpreters inherit: a Ctrl-C at any moment (even while they
+    # import) reaches only this process, which stops them, and none of them prints a traceback
+    main = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
+    try:
+        return [_Worker(ctx, fn) for _ in range(n)]
+    finally:
+        if main:
+            signal.signal(signal.SIGINT, previous)
+
+
+def _run_pool(fn: Callable[..., Any], todo: deque[Task], n: int, on_result: Callable[[int, Any], None],
+              on_failure: Callable[[int, str], None]) -> None:
+    ctx = multiprocessing.get_context("spawn")
+    workers = _start(ctx, fn, n)
+    try:
+        for w in workers:
+            w.feed(todo)
+        while any(w.queued for w in workers):
+            by_conn = {w.conn: w for w in workers if w.queued}
+            for conn in wait(list(by_conn), timeout=1.0):
+                w = by_conn[conn]
+                try:
+                    message = w.conn.recv()
+                except (EOFError, OSError):
+                    lost = w.queued.popleft()
+                    todo.extendleft(reversed(w.queued))
+                    w.queued.clear()
+                    w.stop()
+                    on_failure(lost[0], f"the worker process died (exit code {w.process.exitcode})")
+                    workers[workers.index(w)] = replacement = _start(ctx, fn, 1)[0]
+                    replacement.feed(todo)
+                    continue
+                w.queued.popleft()
+                if message[0] == "ok":
+                    on_result(message[1], message[2])
+                else:
+                    on_failure(message[1], message[2])
+                w.feed(todo)
+    finally:
+        for w in workers:
+            w.stop()
+
+
+__all__ = ["JOURNAL_SUFFIX", "Journal", "ctrl_c_outside_callbacks", "journal_path", "run_header", "run_tasks",
+           "text_digest"]
