@@ -18,7 +18,6 @@ from __future__ import annotations
 import multiprocessing
 import os
 import signal
-import sys
 import threading
 from collections import deque
 from collections.abc import Callable, Iterable
@@ -26,7 +25,7 @@ from multiprocessing.connection import Connection, wait
 from typing import Any, Protocol
 
 from ..errors import CraftError, MissingExtraError
-from ..parallel import usable_cpu_count
+from ..parallel import die_with_parent, usable_cpu_count
 from .instance import InstanceResult, InstanceTask, run_instance
 
 OnResult = Callable[[InstanceResult], None]
@@ -54,34 +53,10 @@ def _failure(task_id: int, err: BaseException) -> Failure:
 # -- local ------------------------------------------------------------------------------------------------------
 
 
-def _die_with_parent(parent: int) -> None:
-    """Make this process end when ``parent`` does (see the module docstring)."""
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-        except (OSError, AttributeError):
-            pass
-
-    def watch() -> None:
-        import time
-
-        while True:
-            if os.getppid() != parent:
-                os._exit(1)
-            time.sleep(1.0)
-
-    if os.getppid() != parent:
-        os._exit(1)
-    threading.Thread(target=watch, daemon=True).start()
-
-
 def _worker_main(conn: Connection, parent: int) -> None:
     """A local worker: run the tasks received on ``conn`` until it closes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _die_with_parent(parent)
+    die_with_parent(parent)
     while True:
         try:
             task = conn.recv()

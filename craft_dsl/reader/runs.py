@@ -293,9 +293,9 @@ def run_tasks(fn: Callable[..., Any], tasks: Sequence[Task], workers: int, on_re
 def _worker_main(conn: Connection, parent: int, fn: Callable[..., Any]) -> None:
     """A worker process: run the tasks received on ``conn`` until it closes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    from ..dataset.executors import _die_with_parent
+    from ..parallel import die_with_parent
 
-    _die_with_parent(parent)
+    die_with_parent(parent)
     while True:
         try:
             task = conn.recv()
