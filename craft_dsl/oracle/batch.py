@@ -1,0 +1,820 @@
+"""Scoring a batch of predicted programs at once: the oracle inside a training loop.
+
+A policy-gradient step samples several programs per question and scores each on its video's simulation.
+:func:`run_batch` takes the whole batch (any form, one simulation or one per program) and returns one outcome
+and answer per program, exactly those of :func:`~craft_dsl.oracle.program_outcome` run on each program alone.
+The work the programs share is done once:
+
+* programs are read into one hash-consed node table for the whole batch (:class:`~craft_dsl.checker.ProgramBuilder`):
+  a call is checked once per distinct (module token, argument) combination, however many programs contain it,
+  and a program written twice in the same form is read once;
+* every node the batch's programs need is evaluated once per simulation, so shared sub-programs
+  (``SceneAtStart()``, ``FilterColor(..., "red")``, ``Events()`` and its filters) cost one evaluation per
+  simulation; counterfactual event sets are computed once per (simulation, removed object) by the
+  simulation's own cache;
+* token sequences (prefix, postfix), node lists and binding-free text are read by batch readers that keep
+  a memo of checked calls; anything they do not read exactly as the single-program readers do (unusual
+  spellings, integers out of range, text with ``Var`` bindings, text or node lists with errors) is read by
+  those readers, through a :class:`~craft_dsl.oracle.ProgramCache`, and its nodes join the same table.
+
+Errors are told apart without building their messages: prefix tokens are read right to left on a stack of
+complete terms, which gives the syntax/type verdict of the left-to-right reader (the first error in reading
+order decides); postfix tokens and node lists are read in their own order and stop at the first error.
+
+Everything the batch builds (node table, memos, node values) lives for one call: memory is proportional to
+the batch. Simulations keep their own caches (counterfactual runs, event filters) as they do for single runs.
+"""
+
+from __future__ import annotations
+
+import gc
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any, cast
+
+import numpy as np
+
+from ..checker import _RESOLUTIONS, _VALUES, ProgramBuilder, _resolve_overload
+from ..errors import (
+    CounterfactualUnavailable,
+    CraftError,
+    EvaluationError,
+    ProgramError,
+)
+from ..ir import RawNode, Value
+from ..nodes import _SHAPES as _NODE_SHAPES
+from ..parser import _FAST_TOKEN, _INT_START, _NAME_START
+from ..parser import _SHAPES as _TEXT_SHAPES
+from ..registry import IMPLS, ModuleSpec
+from ..simulation import Simulation
+from ..tokens import _INT, _ORIGINAL_TO_OURS, _kinds
+from ..types import INVALID, SIDE_INPUT_TYPES, DslType, integer_literal
+from .forms import FORMS, ProgramCache, ProgramForm
+from .outcome import ANSWER_TYPES, OUTCOMES, check_outcome
+
+#: Outcome codes of :attr:`BatchResult.codes`: the index of the outcome in :data:`~craft_dsl.oracle.OUTCOMES`.
+SYNTAX_ERROR = OUTCOMES.index("syntax_error")
+TYPE_ERROR = OUTCOMES.index("type_error")
+INVALID_ANSWER = OUTCOMES.index("invalid")
+ANSWER = OUTCOMES.index("answer")
+
+# Stack items of the token readers: a node index (>= 0), a value token (its text), or one of these markers.
+_TYPE_ERR = -1  # a complete term with a type error in it
+_OPEN_OK = -2  # prefix only: the tokens left of here start a term the sequence never completes, no type error so far
+_OPEN_ERR = -3  # the same, with a type error in what was read of it
+Item = int | str
+# What reading one program gives: a node index (>= 0), one of these codes, or None (read it alone).
+_SYNTAX = -10
+_TYPE = -11
+
+#: Per exact token: a value word (the word), or a module as (number of arguments, spec, input order of an
+#: original name or None, fused side inputs).
+_TokenKind = tuple[int, ModuleSpec, "tuple[int, ...] | None", tuple[str, ...]]
+_TOKEN_KINDS: dict[str, _TokenKind | str] = {}
+
+
+def _token_kinds() -> dict[str, _TokenKind | str]:
+    """The exact token spellings :func:`craft_dsl.tokens.check_tokens` reads on its fast path."""
+    if not _TOKEN_KINDS:
+        for token, kind in _kinds().items():
+            if isinstance(kind, str):
+                _TOKEN_KINDS[token] = kind
+                continue
+            spec, reorder, fused = kind
+            n_args = spec.n_inputs + (0 if fused else len(spec.side_inputs))
+            order = tuple(_ORIGINAL_TO_OURS[spec.name]) if reorder else None
+            _TOKEN_KINDS[token] = (n_args, spec, order, fused or ())
+    return _TOKEN_KINDS
+
+
+#: The exact tokens of modules of one argument.
+_UNARY: list[str] = []
+
+
+def _token_unary() -> list[str]:
+    if not _UNARY:
+        _UNARY.extend(t for t, n in (_ARITY or _token_arity()).items() if n == 1)
+    return _UNARY
+
+
+#: Per exact token: its number of arguments (modules) or -1 (values).
+_ARITY: dict[str, int] = {}
+
+
+def _token_arity() -> dict[str, int]:
+    if not _ARITY:
+        _ARITY.update({t: -1 if isinstance(k, str) else k[0] for t, k in _token_kinds().items()})
+    return _ARITY
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """One outcome and answer per program of a batch, as columns.
+
+    ``codes[i]`` is program i's outcome as an index into :data:`~craft_dsl.oracle.OUTCOMES` (0 syntax error,
+    1 type error, 2 INVALID, 3 answer; also :data:`SYNTAX_ERROR`, :data:`TYPE_ERROR`, :data:`INVALID_ANSWER`,
+    :data:`ANSWER`); ``answers[i]`` is its answer as the dataset writes answers (bool, int, lowercase str)
+    where ``codes[i] == ANSWER``, else None.
+    """
+
+    codes: np.ndarray = field(repr=False)
+    answers: list[Any] = field(repr=False)
+
+    def __len__(self) -> int:
+        return len(self.answers)
+
+    @property
+    def kinds(self) -> list[str]:
+        """The outcome names (``"answer"``, ``"invalid"``, ``"type_error"``, ``"syntax_error"``)."""
+        return [OUTCOMES[c] for c in self.codes.tolist()]
+
+    def counts(self) -> dict[str, int]:
+        """How many programs got each outcome."""
+        found = np.bincount(self.codes, minlength=len(OUTCOMES)).tolist()
+        return dict(zip(OUTCOMES, found))
+
+    def rewards(self, gold: Any, *, wrong: float = 0.0, invalid: float | None = None,
+                error: float | None = None) -> np.ndarray:
+        """Per program: 1.0 where the answer is ``gold``, ``wrong`` where it is another answer, ``invalid``
+        where the value is INVALID and ``error`` for syntax and type errors (both default to ``wrong``).
+
+        ``gold`` is one answer for every program, or a sequence with one answer per program; answers are
+        compared after :func:`craft_dsl.verify.normalise_answer` (``"True"`` matches ``True``, ``"2"`` matches
+        ``2``). Returns a float64 array.
+        """
+        from ..verify import normalise_answer
+
+        n = len(self.answers)
+        if isinstance(gold, (str, bytes)) or not isinstance(gold, Sequence):
+            golds: Sequence[Any] = [gold] * n
+        elif len(gold) != n:
+            raise CraftError(f"rewards: {len(gold)} gold answers for {n} programs; give one answer, or one per "
+                             "program")
+        else:
+            golds = gold
+        keys: dict[tuple[type, Any], str] = {}
+
+        def key(value: Any) -> str:
+            try:
+                k = (type(value), value)
+                found = keys.get(k)
+            except TypeError:  # unhashable (a list): its text, which matches no answer
+                return normalise_answer(value)
+            if found is None:
+                found = keys[k] = normalise_answer(value)
+            return found
+
+        other = {SYNTAX_ERROR: wrong if error is None else error, TYPE_ERROR: wrong if error is None else error,
+                 INVALID_ANSWER: wrong if invalid is None else invalid}
+        out = [(1.0 if key(answer) == key(expected) else wrong) if code == ANSWER else other[code]
+               for code, answer, expected in zip(self.codes.tolist(), self.answers, golds)]
+        return np.array(out, dtype=np.float64)
+
+
+class _Batch:
+    """One batch's node table, memos of checked calls, and readers."""
+
+    def __init__(self) -> None:
+        self.builder = ProgramBuilder()
+        self.nodes = self.builder.nodes
+        self.token_memo: dict[Any, Item] = {}
+        #: Modules of one argument: per token, the memo by argument (cheaper than a (token, argument) key).
+        self.unary: dict[str, dict[Item, Item]] = {w: {} for w in _UNARY or _token_unary()}
+        self.text_memo: dict[Any, int] = {}
+        self.literal_memo: dict[tuple[str, int, Value], int] = {}
+        self.node_memo: dict[Any, int] = {}
+        self.cache = ProgramCache(maxsize=1 << 30)
+        self.schedules: dict[int, tuple[int, ...]] = {}
+        self.ops: list[_Operation] = []
+
+    # -- tokens ------------------------------------------------------------------------------------------
+
+    def _value(self, text: str) -> Value:
+        """A value token's value: the word, or the integer."""
+        return text if text in _TOKEN_KINDS else integer_literal(text)
+
+    def _call(self, kind: _TokenKind, args: Sequence[Item]) -> Item:
+        """The item of a module token applied to ``args`` (in argument order)."""
+        if args and type(last := args[-1]) is int and last in (_OPEN_OK, _OPEN_ERR):
+            return self._open(kind, args)
+        _n_args, spec, order, fused = kind
+        builder = self.builder
+        ids: list[int] = []
+        for k in range(spec.n_inputs):
+            a = args[k]
+            if isinstance(a, int):
+                if a < 0:
+                    return _TYPE_ERR
+                ids.append(a)
+            else:
+                value = self._value(a)
+                if _literal_type(spec, k, value) is None:
+                    return _TYPE_ERR
+                ids.append(builder.input_literal(spec, k, value, None))
+        if fused:
+            sides: list[Value] = list(fused)
+        else:
+            sides = []
+            for a in args[spec.n_inputs:]:
+                if isinstance(a, int):  # a term where a side input must stand (or a term with an error)
+                    return _TYPE_ERR
+                sides.append(self._value(a))
+        if order is not None:
+            ids = [ids[j] for j in order]
+        return self._checked_call(spec, ids, sides)
+
+    def _checked_call(self, spec: ModuleSpec, ids: list[int], sides: Sequence[Value]) -> int:
+        """What ``builder.call(spec, ids, sides)`` gives (the caller has checked the numbers of arguments), or
+        :data:`_TYPE_ERR` where it raises, found without raising: building an error's message costs more than
+        reading a program. The same resolution table, value tables and node as the builder's."""
+        nodes = self.nodes
+        name = spec.name
+        n = len(ids)
+        if n == 1:
+            key: tuple[Any, ...] = (name, nodes[ids[0]][3])
+        elif n == 2:
+            key = (name, nodes[ids[0]][3], nodes[ids[1]][3])
+        else:
+            key = (name, *[nodes[i][3] for i in ids])
+        res = _RESOLUTIONS.get(key)
+        if res is None:
+            if key in _NO_OVERLOAD or _resolve_overload(spec, key[1:]) is None:
+                _NO_OVERLOAD.add(key)
+                return _TYPE_ERR
+            res = _RESOLUTIONS[key]
+        values: tuple[Value, ...] = ()
+        if sides:
+            canonical: list[Value] = []
+            for value, expected in zip(sides, spec.side_inputs):
+                if type(value) is not str:
+                    return _TYPE_ERR
+                found = _canonical(value, expected)
+                if found is None:
+                    return _TYPE_ERR
+                canonical.append(found)
+            values = tuple(canonical)
+        overload, output, wrap = res
+        add = self.builder._add
+        if wrap:
+            ids = list(ids)
+            for k in wrap:
+                ids[k] = add(("Unique", (ids[k],), (), DslType.OBJECT, 0))
+        return add((name, tuple(ids), values, output, overload))
+
+    def _open(self, kind: _TokenKind, args: Sequence[Item]) -> int:
+        """Prefix order, right to left: a module whose arguments run past the end of the sequence (``args``: the
+        complete ones in order, then possibly the open one). Records whether the left-to-right reader meets a
+        type error in what it reads of this call: an argument with one, a value where an input is expected
+        that is not a literal of it, a term where a side input is expected."""
+        _n_args, spec, _order, _fused = kind
+        for k, a in enumerate(args):
+            if isinstance(a, int):
+                if a in (_TYPE_ERR, _OPEN_ERR) or (a >= 0 and k >= spec.n_inputs):
+                    return _OPEN_ERR
+            elif k < spec.n_inputs and _literal_type(spec, k, self._value(a)) is None:
+                return _OPEN_ERR
+        return _OPEN_OK
+
+    def read_prefix(self, words: Sequence[Any]) -> int | None:
+        """Prefix tokens, read right to left: a stack of complete terms (see the module docstring)."""
+        arity = (_ARITY or _token_arity()).get
+        kinds = _TOKEN_KINDS
+        memo = self.token_memo
+        lookup = memo.get
+        call = self._call
+        stack: list[Item] = []
+        push = stack.append
+        unary = self.unary.get
+        key: Any
+        for word in reversed(words):
+            by_arg = unary(word)
+            if by_arg is not None:  # a module of one argument: its memo, by argument
+                if stack:
+                    top = stack[-1]
+                    item = by_arg.get(top)
+                    if item is None:
+                        item = by_arg[top] = call(kinds[word], (top,))  # type: ignore[arg-type]
+                    stack[-1] = item
+                else:
+                    push(_OPEN_OK)
+                continue
+            n = arity(word)
+            if n == -1:
+                push(word)
+            elif n == 0:
+                item = lookup(word)
+                if item is None:
+                    item = memo[word] = call(kinds[word], ())  # type: ignore[arg-type]
+                push(item)
+            elif n is None:
+                if not _extra_token(word):
+                    return None
+                push(word)
+            elif len(stack) >= n:
+                args = stack[-n:]
+                args.reverse()
+                key = (word, *args)
+                item = lookup(key)
+                if item is None:
+                    item = memo[key] = call(kinds[word], args)  # type: ignore[arg-type]
+                del stack[-n:]
+                push(item)
+            else:  # fewer terms than arguments: the call runs past the end
+                stack.reverse()
+                stack[:] = [self._open(kinds[word], stack)]  # type: ignore[arg-type]
+        top = stack[-1]
+        if type(top) is str:  # the sequence starts with a value
+            return _SYNTAX
+        if len(stack) == 1:
+            if top >= 0:  # type: ignore[operator]
+                return top  # type: ignore[return-value]
+            return _SYNTAX if top == _OPEN_OK else _TYPE
+        # The term starting at token 0 ends before the sequence does: too many tokens, unless it has a type error.
+        return _TYPE if top == _TYPE_ERR else _SYNTAX
+
+    def read_postfix(self, words: Sequence[Any]) -> int | None:
+        """Postfix tokens, left to right; the first error decides, as in the token reader."""
+        arity = _ARITY or _token_arity()
+        kinds = _TOKEN_KINDS
+        memo = self.token_memo
+        call = self._call
+        stack: list[Item] = []
+        for word in words:
+            n = arity.get(word)
+            if n is None:
+                if not _extra_token(word):
+                    return None
+                stack.append(word)
+                continue
+            key: Any
+            if n < 0:
+                stack.append(word)
+                continue
+            if n == 1:
+                if not stack:
+                    return _SYNTAX
+                by_arg = self.unary[word]
+                top = stack[-1]
+                item = by_arg.get(top)
+                if item is None:
+                    item = by_arg[top] = call(kinds[word], (top,))  # type: ignore[arg-type]
+                if item == _TYPE_ERR:
+                    return _TYPE
+                stack[-1] = item
+                continue
+            if n == 0:
+                item = memo.get(word)
+                if item is None:
+                    item = memo[word] = call(kinds[word], ())  # type: ignore[arg-type]
+                stack.append(item)
+                continue
+            if len(stack) < n:
+                return _SYNTAX
+            key = (word, *stack[-n:])
+            item = memo.get(key)
+            if item is None:
+                item = memo[key] = call(kinds[word], stack[-n:])  # type: ignore[arg-type]
+            if item == _TYPE_ERR:
+                return _TYPE
+            del stack[-n:]
+            stack.append(item)
+        root = stack[0] if len(stack) == 1 else None
+        return root if isinstance(root, int) else _SYNTAX
+
+    # -- text --------------------------------------------------------------------------------------------
+
+    def read_text(self, text: str) -> int | None:
+        """Binding-free text, as :func:`craft_dsl.parser.fast_check` reads it, with a memo of checked calls;
+        None for anything that reader gives up on (errors included)."""
+        toks = _FAST_TOKEN.findall(text)
+        if not toks or "Var" in toks:
+            return None
+        shape_of = _TEXT_SHAPES.get
+        frames: list[tuple[str, ModuleSpec, int, int, list[Any]]] = []
+        n = len(toks)
+        i = 0
+        try:
+            while True:
+                tok = toks[i]
+                first = tok[0]
+                value: Value
+                node: int | None
+                if first in _NAME_START:
+                    if toks[i + 1] != "(":
+                        return None
+                    shape = shape_of(tok)
+                    if shape is None:
+                        return None
+                    frame: tuple[str, ModuleSpec, int, int, list[Any]] = (tok, *shape, [])
+                    i += 2
+                    if toks[i] != ")":
+                        frames.append(frame)
+                        continue
+                    i += 1
+                    node = self._close_text(frame)
+                    value = 0
+                elif first == '"':
+                    node, value = None, tok[1:-1]
+                    i += 1
+                elif first in _INT_START and tok != "-":
+                    node, value = None, integer_literal(tok)
+                    i += 1
+                else:
+                    return None
+                while True:  # deliver the value to the call it is an argument of
+                    if not frames:
+                        if i != n or node is None:
+                            return None
+                        return node
+                    _tok, spec, n_inputs, arity, args = frames[-1]
+                    k = len(args)
+                    if k < n_inputs:
+                        args.append(node if node is not None else self._text_literal(spec, k, value))
+                    elif k < arity and node is None and isinstance(value, str):
+                        args.append(value)
+                    else:
+                        return None
+                    tok = toks[i]
+                    i += 1
+                    if tok == ",":
+                        break
+                    if tok != ")":
+                        return None
+                    node = self._close_text(frames.pop())
+        except (IndexError, ValueError, ProgramError, _GiveUp):
+            return None
+
+    def _text_literal(self, spec: ModuleSpec, k: int, value: Value) -> int:
+        key = (spec.name, k, value)
+        found = self.literal_memo.get(key)
+        if found is None:
+            found = self.literal_memo[key] = self.builder.input_literal(spec, k, value, None)
+        return found
+
+    def _close_text(self, frame: tuple[str, ModuleSpec, int, int, list[Any]]) -> int:
+        tok, spec, n_inputs, arity, args = frame
+        if len(args) != arity:
+            raise _GiveUp
+        key = (tok, *args)
+        found = self.text_memo.get(key)
+        if found is None:
+            try:
+                found = self.builder.call(spec, args[:n_inputs], args[n_inputs:])
+            except ProgramError:
+                found = -1
+            self.text_memo[key] = found
+        if found < 0:
+            raise _GiveUp
+        return found
+
+    # -- node lists --------------------------------------------------------------------------------------
+
+    def read_nodes(self, nodes: Any) -> int | None:
+        """A node list of plain nodes (dicts whose ``type``, ``inputs`` and side inputs are well formed), node
+        by node with a memo of checked nodes; the first type error decides; None for anything else."""
+        if type(nodes) is not list or not nodes:
+            return None
+        try:
+            return self._read_nodes(nodes)
+        except TypeError:  # an unhashable "type"
+            return None
+
+    def _read_nodes(self, nodes: list[Any]) -> int | None:
+        memo = self.node_memo
+        shapes: Callable[[Any], Any] = _NODE_SHAPES.get  # any hashable "type" may be looked up
+        built: list[int] = []
+        key: Any
+        for k, node in enumerate(nodes):
+            if type(node) is not dict:
+                return None
+            name = node.get("type")
+            shape = shapes(name)
+            inputs = node.get("inputs")
+            if shape is None or type(inputs) is not list:
+                return None
+            n_inputs = shape[1]
+            if len(inputs) != n_inputs:
+                return None
+            if n_inputs == 1:
+                i = inputs[0]
+                if type(i) is not int or not 0 <= i < k:
+                    return None
+                key = (name, built[i])
+            elif n_inputs == 0:
+                key = name
+            else:
+                for i in inputs:
+                    if type(i) is not int or not 0 <= i < k:
+                        return None
+                key = (name, *[built[i] for i in inputs])
+            sides = node.get("value_inputs") or node.get("side_inputs")
+            if sides:
+                if type(sides) is not list or len(sides) != shape[3]:
+                    return None
+                for v in sides:
+                    if type(v) is not str or v[:1] == "<":
+                        return None
+                key = (key, *sides)
+            elif shape[3]:
+                return None
+            found = memo.get(key)
+            if found is None:
+                args = [built[i] for i in inputs]
+                reorder = shape[2]
+                if reorder is not None:
+                    args = [args[j] for j in reorder]
+                found = memo[key] = self._checked_call(shape[0], args, sides or ())
+            if found < 0:
+                return _TYPE
+            built.append(found)
+        return built[-1]
+
+    # -- programs read alone -------------------------------------------------------------------------------
+
+    def read_alone(self, program: Any, form: ProgramForm | None) -> int:
+        """A program the batch readers leave to the single-program readers; its nodes join the table."""
+        outcome, checked = check_outcome(program, form, self.cache)
+        if outcome is not None:
+            return _SYNTAX if outcome.kind == "syntax_error" else _TYPE
+        assert checked is not None
+        index: list[int] = []
+        add = self.builder._add
+        for module, inputs, values, typ, overload in checked.nodes:
+            raw: RawNode = (module, tuple([index[j] for j in inputs]), values, typ, overload)
+            index.append(add(raw))
+        return index[-1]
+
+    # -- evaluation --------------------------------------------------------------------------------------------
+
+    def schedule(self, root: int) -> tuple[int, ...]:
+        """The nodes ``root`` needs, itself included, in dependency order (cached per root)."""
+        found = self.schedules.get(root)
+        if found is None:
+            nodes = self.nodes
+            needed = {root}
+            stack = [root]
+            while stack:
+                for j in nodes[stack.pop()][1]:
+                    if j not in needed:
+                        needed.add(j)
+                        stack.append(j)
+            found = self.schedules[root] = tuple(sorted(needed))
+        return found
+
+    def _operations(self) -> list[_Operation]:
+        """One operation per node of the table (see :data:`_Operation`)."""
+        ops, nodes = self.ops, self.nodes
+        for module, inputs, values, _type, _overload in nodes[len(ops):]:
+            if module is None:
+                ops.append((_LITERAL, None, 0, 0, values[0]))
+                continue
+            impl = IMPLS[module]
+            n = len(inputs)
+            if n == 1 and not values:
+                ops.append((_ONE, impl, inputs[0], 0, None))
+            elif n == 1 and len(values) == 1:
+                ops.append((_ONE_SIDE, impl, inputs[0], 0, values[0]))
+            elif n == 0 and not values:
+                ops.append((_NONE, impl, 0, 0, None))
+            elif n == 2 and not values:
+                ops.append((_TWO, impl, inputs[0], inputs[1], None))
+            else:
+                ops.append((_OTHER, impl, 0, 0, (inputs, values)))
+        return ops
+
+    def evaluate(self, sim: Simulation, roots: Sequence[int]) -> dict[int, Any]:
+        """The value of every node the ``roots`` need, on ``sim``: each node once. A node that raises
+        (a counterfactual the simulation cannot give, a state index out of range) is INVALID, as are the nodes
+        that take it as input; a program that needs it is INVALID, as it is when run alone."""
+        distinct = set(roots)
+        if len(distinct) == 1:
+            order: Sequence[int] = self.schedule(roots[0])
+        else:
+            needed: set[int] = set()
+            for r in distinct:
+                needed.update(self.schedule(r))
+            order = sorted(needed)
+        ops = self._operations()
+        slots: dict[int, Any] = {}
+        invalid = INVALID
+        for g in order:
+            code, impl, a, b, v = ops[g]
+            try:
+                if code == _ONE:
+                    x = slots[a]
+                    slots[g] = invalid if x is invalid else impl(sim, x)
+                elif code == _ONE_SIDE:
+                    x = slots[a]
+                    slots[g] = invalid if x is invalid else impl(sim, x, v)
+                elif code == _LITERAL:
+                    slots[g] = v
+                elif code == _NONE:
+                    slots[g] = impl(sim)
+                elif code == _TWO:
+                    x, y = slots[a], slots[b]
+                    slots[g] = invalid if x is invalid or y is invalid else impl(sim, x, y)
+                else:
+                    inputs, values = v
+                    args = [slots[j] for j in inputs]
+                    slots[g] = invalid if any(x is invalid for x in args) else impl(sim, *args, *values)
+            except (CounterfactualUnavailable, EvaluationError):
+                slots[g] = invalid
+        return slots
+
+
+#: How a node is evaluated: (shape, implementation, first input, second input, side value / literal / other).
+_Operation = tuple[int, Any, int, int, Any]
+_LITERAL, _NONE, _ONE, _ONE_SIDE, _TWO, _OTHER = range(6)
+
+
+def _extra_token(word: Any) -> bool:
+    """Whether a token missing from the exact-spelling table is an integer the token reader accepts."""
+    if type(word) is not str or not _INT.match(word):
+        return False
+    try:
+        integer_literal(word)
+    except ValueError:
+        return False
+    return True
+
+
+_INPUT_TYPES: dict[tuple[str, int], frozenset[DslType]] = {}
+#: (module, *input types) that no overload of the module accepts (the checker caches only the ones that fit).
+_NO_OVERLOAD: set[tuple[Any, ...]] = set()
+
+
+def _literal_type(spec: ModuleSpec, k: int, value: Value) -> DslType | None:
+    """The type of the literal ``ProgramBuilder.input_literal`` makes of ``value`` as input ``k`` of ``spec``, or
+    None where it raises."""
+    if isinstance(value, int):
+        return DslType.INTEGER
+    expected = _INPUT_TYPES.get((spec.name, k))
+    if expected is None:
+        expected = _INPUT_TYPES[(spec.name, k)] = frozenset(ov.inputs[k] for ov in spec.overloads)
+    if len(expected) != 1:
+        return None
+    (typ,) = expected
+    return typ if typ in SIDE_INPUT_TYPES and _canonical(value, typ) is not None else None
+
+
+def _canonical(value: str, typ: DslType) -> str | None:
+    """What :func:`craft_dsl.checker.canonical_value` gives, or None where it raises."""
+    table = _VALUES[typ]
+    found = table.get(value)
+    return found if found is not None else table.get(value.strip().lower())
+
+
+class _GiveUp(Exception):
+    """The text reader leaves the program to the single-program reader."""
+
+
+def _check_form(form: Any) -> ProgramForm | None:
+    if form is None:
+        return None
+    if form not in FORMS:
+        raise CraftError(f"run_batch: unknown program form {form!r}; allowed: {', '.join(FORMS)}, or None to "
+                         "detect each program's form (a string is text, a list of objects a node list, a list of "
+                         "strings prefix tokens)")
+    return cast(ProgramForm, form)
+
+
+def run_batch(programs: Sequence[Any], sims: Simulation | Sequence[Simulation],
+              form: ProgramForm | None = None) -> BatchResult:
+    """The outcome and answer of every program of a batch, exactly as :func:`program_outcome` gives them for
+    each program alone, with the work the programs share done once (see the module docstring).
+
+    Args:
+        programs: predicted programs: DSL text (strings), node lists, or token sequences (lists of strings, or
+            space-separated strings with ``form="prefix"``/``"postfix"``).
+        sims: one simulation for every program, or a sequence with one simulation per program (programs on
+            the same simulation object share its node values).
+        form: ``"text"``, ``"nodes"``, ``"prefix"`` or ``"postfix"`` for every program, or None to detect each
+            program's form as :func:`~craft_dsl.oracle.detect_form` does (a list of strings is prefix tokens).
+
+    Raises CraftError for a batch that cannot be scored (``programs`` not a list, a ``sims`` list of another
+    length, an unknown form) and, naming the program, where running that program alone raises.
+    """
+    form = _check_form(form)
+    if isinstance(programs, (str, bytes)) or not isinstance(programs, Sequence):
+        raise CraftError(f"run_batch: programs must be a list of programs, found {type(programs).__name__}")
+    n = len(programs)
+    sim_list: Sequence[Simulation] | None
+    if isinstance(sims, Simulation):
+        sim_list = None
+    elif isinstance(sims, Sequence) and not isinstance(sims, (str, bytes)):
+        if len(sims) != n:
+            raise CraftError(f"run_batch: {n} programs but {len(sims)} simulations; pass one simulation for every "
+                             "program, or a list with one simulation per program")
+        for i, s in enumerate(sims):
+            if not isinstance(s, Simulation):
+                raise CraftError(f"run_batch: simulation {i} is a {type(s).__name__}, not a Simulation")
+        sim_list = sims
+    else:
+        raise CraftError(f"run_batch: sims must be a Simulation or a list of them, found {type(sims).__name__}")
+
+    was_enabled = gc.isenabled()
+    gc.disable()  # a batch makes many small objects and no reference cycles: full collections would only cost
+    try:
+        return _run(programs, sims, sim_list, form)
+    finally:
+        if was_enabled:
+            gc.enable()
+
+
+def _run(programs: Sequence[Any], sims: Simulation | Sequence[Simulation], sim_list: Sequence[Simulation] | None,
+         form: ProgramForm | None) -> BatchResult:
+    n = len(programs)
+    batch = _Batch()
+    # Read every distinct program once: `read[i]` is program i's answer node, or an error code. Programs are
+    # the same when they are equal token lists (or strings) in the same form, or the same node-list object.
+    read: list[int] = [0] * n
+    seen: dict[str, dict[Any, int]] = {f: {} for f in FORMS}
+    keep: list[Any] = []  # node lists are told apart by identity: keep them alive for the call
+    readers: dict[str, Callable[[Any], int | None]] = {
+        "prefix": batch.read_prefix, "postfix": batch.read_postfix, "text": batch.read_text,
+        "nodes": batch.read_nodes}
+    answer_types = ANSWER_TYPES
+    nodes = batch.nodes
+    for i, program in enumerate(programs):
+        kind = type(program)
+        p_form: str | None = form
+        if kind is list or kind is tuple:
+            if not program:
+                p_form = None
+            elif p_form is None:
+                first = type(program[0])
+                p_form = "nodes" if first is dict else "prefix" if first is str else None
+            if p_form == "prefix" or p_form == "postfix":
+                key = tuple(program) if kind is list else program
+            elif p_form == "nodes" and kind is list:
+                key = id(program)
+            else:
+                p_form = None
+        elif kind is str:
+            if p_form is None:
+                p_form = "text"
+            elif p_form == "nodes":
+                p_form = None
+            key = program
+        else:
+            p_form = None
+        if p_form is None:
+            read[i] = _alone(batch, program, form, i)
+            continue
+        table = seen[p_form]
+        try:
+            found = table.get(key)
+        except TypeError:  # a token that is not hashable
+            read[i] = _alone(batch, program, form, i)
+            continue
+        if found is None:
+            words = program.split() if kind is str and p_form != "text" else program
+            result = readers[p_form](words) if words else None
+            if result is None:
+                result = _alone(batch, program, form, i)
+            elif result >= 0 and nodes[result][3] not in answer_types:
+                result = _TYPE
+            found = table[key] = result
+            if p_form == "nodes":
+                keep.append(program)
+        read[i] = found
+
+    # Evaluate the needed nodes once per simulation.
+    groups: dict[int, tuple[Simulation, list[int]]] = {}
+    if sim_list is None:
+        groups[0] = (sims, [r for r in read if r >= 0])  # type: ignore[assignment]
+        group_of: list[int] = [0] * n
+    else:
+        group_of = [id(s) for s in sim_list]
+        for r, s, g_id in zip(read, sim_list, group_of):
+            g = groups.get(g_id)
+            if g is None:
+                g = groups[g_id] = (s, [])
+            if r >= 0:
+                g[1].append(r)
+    values = {g_id: batch.evaluate(s, roots) if roots else {} for g_id, (s, roots) in groups.items()}
+
+    codes: list[int] = [0] * n
+    answers: list[Any] = [None] * n
+    invalid = INVALID
+    single = values[0] if sim_list is None else None
+    for i, r in enumerate(read):
+        if r >= 0:
+            value = single[r] if single is not None else values[group_of[i]][r]
+            if value is invalid:
+                codes[i] = INVALID_ANSWER
+            else:
+                codes[i] = ANSWER
+                answers[i] = value
+        else:
+            codes[i] = SYNTAX_ERROR if r == _SYNTAX else TYPE_ERROR
+    return BatchResult(np.array(codes, dtype=np.int8), answers)
+
+
+def _alone(batch: _Batch, program: Any, form: ProgramForm | None, i: int) -> int:
+    try:
+        return batch.read_alone(program, form)
+    except ProgramError:  # pragma: no cover - check_outcome turns these into outcomes
+        raise
+    except CraftError as err:
+        raise CraftError(f"run_batch: program {i}: {err}") from err

@@ -1,0 +1,299 @@
+"""craft_dsl.oracle.run_batch: a batch's outcomes are exactly those of each program run alone.
+
+The differential tests hold ``run_batch`` equal to :func:`craft_dsl.oracle.program_outcome` (outcome kind and
+answer) over every template's programs on recorded simulations in every form, over edited token sequences, node
+lists and texts, and over drawn programs; the others cover rewards, bad input, determinism and the shared work
+(a node evaluated once per simulation, a counterfactual computed once per simulation and removed object).
+"""
+
+from __future__ import annotations
+
+import gc
+import random
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from craft_dsl import CraftError, Program, Simulation, load_simulation
+from craft_dsl.oracle import OUTCOMES, BatchResult, program_outcome, run_batch
+from craft_dsl.oracle.batch import ANSWER, INVALID_ANSWER, SYNTAX_ERROR, TYPE_ERROR
+from craft_dsl.recorded import simulation_dict
+from craft_dsl.registry import IMPLS
+from craft_dsl.strategies import node_lists, programs
+from craft_dsl.templates import first_instances
+from craft_dsl.tokens import program_vocabulary
+from tests.conftest import BASIC_OBJECTS, make_sim
+from tests.test_nodes_fast_path import EDITS, NAMES, edited
+
+SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+VOCABULARY = program_vocabulary()
+FORMS = ("prefix", "postfix", "text", "nodes")
+
+
+@pytest.fixture(scope="module")
+def sims(e1: Simulation) -> list[Simulation]:
+    """E1 and two live runs written to the recorded format and loaded back."""
+    from craft_dsl.physics import simulate
+
+    return [e1, *(load_simulation(simulation_dict(simulate(scene, seed=1))) for scene in (3, 12))]
+
+
+def in_form(program: Program, form: str) -> Any:
+    if form == "text":
+        return str(program)
+    if form == "nodes":
+        return program.to_nodes()
+    return program.to_tokens(form)  # type: ignore[arg-type]
+
+
+def alone(programs: Sequence[Any], sims: Simulation | Sequence[Simulation], form: str | None) -> list[tuple[Any, ...]]:
+    """(outcome, answer) of each program run alone."""
+    sim_list = [sims] * len(programs) if isinstance(sims, Simulation) else list(sims)
+    out = []
+    for program, sim in zip(programs, sim_list):
+        o = program_outcome(program, sim, form)  # type: ignore[arg-type]
+        out.append((o.kind, o.answer))
+    return out
+
+
+def batched(result: BatchResult) -> list[tuple[Any, ...]]:
+    return list(zip(result.kinds, result.answers))
+
+
+def assert_same(programs: Sequence[Any], sims: Simulation | Sequence[Simulation], form: str | None) -> BatchResult:
+    result = run_batch(programs, sims, form=form)  # type: ignore[arg-type]
+    expected = alone(programs, sims, form)
+    got = batched(result)
+    wrong = [(p, g, e) for p, g, e in zip(programs, got, expected) if g != e]
+    assert not wrong, f"{len(wrong)} differ, first: {wrong[0]}"
+    return result
+
+
+def token_edits(tokens: list[str], rng: random.Random) -> list[str]:
+    """``tokens`` with 1 to 3 random edits: a vocabulary token in place of one, one deleted, one inserted, two
+    swapped."""
+    out = list(tokens)
+    for _ in range(rng.randint(1, 3)):
+        op = rng.randrange(4)
+        i = rng.randrange(len(out) + 1)
+        if op == 0 and i < len(out):
+            out[i] = rng.choice(VOCABULARY)
+        elif op == 1 and i < len(out) and len(out) > 1:
+            del out[i]
+        elif op == 2:
+            out.insert(i, rng.choice(VOCABULARY))
+        elif i + 1 < len(out):
+            out[i], out[i + 1] = out[i + 1], out[i]
+    return out
+
+
+# -- differential: templates, edits, drawn programs -----------------------------------------------------------
+
+
+@pytest.mark.parametrize("form", FORMS)
+def test_every_template_program_as_alone(sims: list[Simulation], form: str) -> None:
+    items = [(sim, p) for sim in sims for _t, _p, p, _a in first_instances(sim, include_dropped=True)]
+    programs = [in_form(p, form) for _sim, p in items]
+    result = assert_same(programs, [sim for sim, _p in items], form)
+    assert result.counts()["answer"] == len(items)  # every template instance answers
+    for sim in sims:  # one simulation for the whole batch
+        mine = [in_form(p, form) for s, p in items if s is sim]
+        assert_same(mine, sim, form)
+
+
+@pytest.mark.parametrize("order", ["prefix", "postfix"])
+def test_edited_token_sequences_as_alone(sims: list[Simulation], order: str) -> None:
+    rng = random.Random(7)
+    programs, on = [], []
+    for sim in sims:
+        for _t, _p, p, _a in first_instances(sim, include_dropped=True):
+            tokens = p.to_tokens(order)  # type: ignore[arg-type]
+            for _ in range(12):
+                programs.append(token_edits(tokens, rng))
+                on.append(sim)
+    result = assert_same(programs, on, order)
+    counts = result.counts()
+    assert counts["syntax_error"] > 100 and counts["type_error"] > 100 and counts["answer"] > 10, counts
+
+
+def test_edited_node_lists_and_texts_as_alone(sims: list[Simulation]) -> None:
+    rng = random.Random(3)
+    sim = sims[1]
+    nodes, texts = [], []
+    for _t, _p, p, _a in first_instances(sim, include_dropped=True):
+        n = p.to_nodes()
+        for kind in ("type", *EDITS):
+            nodes.append(edited(n, rng.randrange(len(n)), kind, rng.choice(NAMES)))
+        text = str(p)
+        for _ in range(4):
+            i = rng.randrange(len(text))
+            texts.append(text[:i] + rng.choice(['"', "(", ")", ",", "x", " ", "Events()", '"red"']) + text[i + 1:])
+    result = assert_same(nodes, sim, "nodes")
+    assert result.counts()["syntax_error"] and result.counts()["type_error"] and result.counts()["answer"]
+    assert_same(texts, sim, "text")
+
+
+def test_mixed_forms_detected_per_program(sims: list[Simulation]) -> None:
+    """form=None: a string is text, a list of objects a node list, a list of strings prefix tokens."""
+    sim = sims[2]
+    mixed: list[Any] = []
+    for _t, _p, p, _a in first_instances(sim, include_dropped=True):
+        mixed += [str(p), p.to_nodes(), p.to_tokens("prefix"), tuple(p.to_tokens("prefix")), " ".join(p.to_tokens())]
+    mixed += [[], "", "Count(", ["Count", "Events", "Events"], [{"type": "count", "inputs": []}]]
+    assert_same(mixed, sim, None)
+    for order in ("prefix", "postfix"):  # space-separated token strings, with the order given
+        spaced = [" ".join(p.to_tokens(order)) for _t, _p, p, _a in first_instances(sim)]  # type: ignore[arg-type]
+        assert_same(spaced + ["", "  ", "Count Events Events"], sim, order)
+
+
+@SETTINGS
+@given(program=programs(), form=st.sampled_from(("prefix", "postfix", "text")), rng=st.randoms(use_true_random=False))
+def test_drawn_programs_as_alone(e1: Simulation, program: Program, form: str, rng: random.Random) -> None:
+    """Drawn programs (any type, bindings, literals) and edits of their tokens, on E1 and on a hand-made scene
+    whose counterfactuals are missing for some objects."""
+    batch: list[Any] = [in_form(program, form)]
+    if form != "text":
+        batch += [token_edits(batch[0], rng) for _ in range(4)]
+    for sim in (e1, _basic()):
+        assert_same(batch, sim, form)
+
+
+@SETTINGS
+@given(node_lists(), st.integers(0, 100), st.sampled_from(("type", *EDITS)), st.sampled_from(NAMES))
+def test_drawn_node_lists_as_alone(nodes: list[dict[str, Any]], at: int, kind: str, name: str) -> None:
+    assert_same([nodes, edited(nodes, at % len(nodes), kind, name)], _basic(), "nodes")
+
+
+_BASIC: list[Simulation] = []
+
+
+def _basic() -> Simulation:
+    """BASIC_OBJECTS with counterfactuals for objects 1 and 3 only (asking for another is INVALID)."""
+    if not _BASIC:
+        _BASIC.append(make_sim(BASIC_OBJECTS, [(40, "Collision", 3, 2), (80, "EnterBasket", 5, 2),
+                                               (140, "Collision", 1, 6)],
+                               {3: [(40, "Collision", 0, 4)], 1: []}))
+    return _BASIC[0]
+
+
+# -- shared work -----------------------------------------------------------------------------------------------
+
+
+def test_each_node_is_evaluated_once_per_simulation(sims: list[Simulation], monkeypatch: pytest.MonkeyPatch) -> None:
+    calls: list[tuple[int, Any]] = []
+    real = IMPLS["FilterColor"]
+
+    def counting(sim: Simulation, objs: Any, color: str) -> Any:
+        calls.append((id(sim), color))
+        return real(sim, objs, color)
+
+    monkeypatch.setitem(IMPLS, "FilterColor", counting)
+    texts = ['Count(FilterColor(SceneAtStart(), "red"))', 'Exist(FilterColor(SceneAtStart(), "red"))',
+             'QueryShape(Unique(FilterColor(SceneAtStart(), "red")))', 'Count(FilterColor(SceneAtStart(), "blue"))']
+    batch = texts * 5
+    on = [sims[k // len(texts) % 2] for k in range(len(batch))]  # each round of the texts on one simulation
+    assert_same(batch, on, "text")
+    calls.clear()
+    run_batch(batch, on, form="text")
+    assert sorted(calls) == sorted({(id(s), c) for s in sims[:2] for c in ("red", "blue")})
+
+
+def test_each_counterfactual_is_computed_once_per_simulation_and_object() -> None:
+    asked: list[int] = []
+    sim = make_sim(BASIC_OBJECTS, [(40, "Collision", 3, 2), (140, "Collision", 1, 6)],
+                   {o: [(60, "Collision", 1 if o == 0 else 0, 6)] for o in (0, 1, 2, 3)})
+    source = sim._counterfactuals
+    assert source is not None
+
+    def counting(obj: int) -> Simulation:
+        asked.append(obj)
+        return source(obj)
+
+    sim._counterfactuals = counting
+    batch = ["AnyTrue(ExistList(GetCounterfactEventsList(FilterDynamic(SceneAtStart()))))",
+             "Count(GetCounterfactEvents(Unique(FilterColor(SceneAtStart(), \"red\"))))",
+             "Exist(FilterCollision(GetCounterfactEvents(Unique(FilterShape(SceneAtStart(), \"cube\")))))",
+             "AnyTrue(ExistList(FilterCollideGroundList(GetCounterfactEventsList(FilterDynamic(SceneAtStart())))))"]
+    result = run_batch(batch * 3, sim, form="text")
+    assert sorted(asked) == [0, 1, 2, 3]
+    assert result.kinds == ["answer"] * 12
+    assert batched(result) == alone(batch * 3, sim, "text")
+
+
+# -- the result ---------------------------------------------------------------------------------------------------
+
+
+def test_result_columns(sims: list[Simulation]) -> None:
+    sim = sims[0]
+    batch = ['Count(FilterDynamic(SceneAtStart()))', "Count(", 'Count(QueryColor(Unique(SceneAtStart())))',
+             'QueryColor(Unique(SceneAtStart()))', 'Exist(FilterColor(SceneAtStart(), "red"))']
+    result = run_batch(batch, sim)
+    assert isinstance(result.codes, np.ndarray) and result.codes.dtype == np.int8
+    assert result.codes.tolist() == [ANSWER, SYNTAX_ERROR, TYPE_ERROR, INVALID_ANSWER, ANSWER]
+    assert result.kinds == [OUTCOMES[c] for c in result.codes.tolist()]
+    assert result.answers[0] == Program.parse(batch[0]).run(sim) and result.answers[1:4] == [None] * 3
+    assert len(result) == 5 and result.counts() == {"syntax_error": 1, "type_error": 1, "invalid": 1, "answer": 2}
+
+
+def test_rewards(sims: list[Simulation]) -> None:
+    sim = sims[0]
+    count = Program.parse("Count(FilterDynamic(SceneAtStart()))").run(sim)
+    batch = ["Count(FilterDynamic(SceneAtStart()))", "Count(SceneAtStart())", "Count(",
+             "QueryColor(Unique(SceneAtStart()))", "Exist(FilterDynamic(SceneAtStart()))"]
+    result = run_batch(batch, sim)
+    assert result.rewards(str(count)).tolist() == [1.0, 0.0, 0.0, 0.0, 0.0]
+    assert result.rewards(count, wrong=-0.5, error=-1.0, invalid=-0.25).tolist() == [1.0, -0.5, -1.0, -0.25, -0.5]
+    per_program = [count, count, count, "red", "True"]
+    assert result.rewards(per_program).tolist() == [1.0, 0.0, 0.0, 0.0, 1.0]
+    assert result.rewards(per_program, error=0.1).tolist() == [1.0, 0.0, 0.1, 0.0, 1.0]
+    assert result.rewards([[1], None, 2, 3, "yes"]).tolist() == [0.0, 0.0, 0.0, 0.0, 1.0]
+    with pytest.raises(CraftError, match="rewards: 2 gold answers for 5 programs"):
+        result.rewards([1, 2])
+
+
+# -- bad input ----------------------------------------------------------------------------------------------------
+
+
+def test_bad_batches_are_refused_precisely(sims: list[Simulation]) -> None:
+    sim = sims[0]
+    with pytest.raises(CraftError, match=r"run_batch: 3 programs but 2 simulations; pass one simulation for every "
+                                         r"program, or a list with one simulation per program"):
+        run_batch(["Count(Events())"] * 3, [sim, sim])
+    with pytest.raises(CraftError, match=r"run_batch: unknown program form 'tokens'; allowed: text, nodes, prefix, "
+                                         r"postfix, or None"):
+        run_batch(["Count(Events())"], sim, form="tokens")  # type: ignore[arg-type]
+    with pytest.raises(CraftError, match="run_batch: programs must be a list of programs, found str"):
+        run_batch("Count(Events())", sim)
+    with pytest.raises(CraftError, match="run_batch: simulation 1 is a str, not a Simulation"):
+        run_batch(["Count(Events())"] * 2, [sim, "e1"])  # type: ignore[list-item]
+    with pytest.raises(CraftError, match="run_batch: sims must be a Simulation or a list of them, found NoneType"):
+        run_batch(["Count(Events())"], None)  # type: ignore[arg-type]
+    # A program that running alone refuses (not a program at all) is refused, naming it.
+    with pytest.raises(CraftError, match=r"run_batch: program 1: a program must be DSL text"):
+        run_batch(["Count(Events())", 42], sim)
+    with pytest.raises(CraftError, match=r"run_batch: program 0: a text program must be a string"):
+        run_batch([["Count", "Events"]], sim, form="text")
+    assert gc.isenabled()  # the collector is on again after a refusal
+    assert len(run_batch([], sim)) == 0
+
+
+# -- determinism -----------------------------------------------------------------------------------------------------
+
+
+def test_results_do_not_depend_on_the_batch(sims: list[Simulation]) -> None:
+    """The same batch twice, shuffled, and each program in a batch of its own give the same results."""
+    rng = random.Random(11)
+    sim = sims[1]
+    batch = [token_edits(p.to_tokens(), rng) if rng.random() < 0.5 else p.to_tokens()
+             for _t, _p, p, _a in first_instances(sim, include_dropped=True) for _ in range(3)]
+    first = batched(run_batch(batch, sim, form="prefix"))
+    assert batched(run_batch(batch, sim, form="prefix")) == first
+    order = list(range(len(batch)))
+    rng.shuffle(order)
+    shuffled = batched(run_batch([batch[i] for i in order], sim, form="prefix"))
+    assert shuffled == [first[i] for i in order]
+    assert [batched(run_batch([p], sim, form="prefix"))[0] for p in batch[:40]] == first[:40]
