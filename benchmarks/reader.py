@@ -84,12 +84,26 @@ def _match_events(ours: list[tuple[str, tuple[int, ...], int]], truth: list[tupl
     return matched
 
 
-def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth_answers: dict[str, Any]
-              ) -> dict[str, Any]:
+def _position_errors(uid_map: dict[int, int], ours_world: Any, ot: Any, tt: Any) -> list[float]:
+    """Per matched dynamic object: mean distance (pixels, every step) of our trajectory from the true one."""
+    errors = []
+    for ours_uid, true_uid in uid_map.items():
+        if ours_uid not in ot.ids or not ours_world.body(ours_uid).dynamic:
+            continue
+        a = ot.positions[1:, ot.column(ours_uid)]
+        b = tt.positions[1:, tt.column(true_uid)]
+        ax, ay = world_to_pixel(a[:, 0], a[:, 1])
+        bx, by = world_to_pixel(b[:, 0], b[:, 1])
+        errors.append(float(np.mean(np.hypot(np.asarray(ax) - bx, np.asarray(ay) - by))))
+    return errors
+
+
+def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth_answers: dict[str, Any],
+              engines: list[str] | None = None) -> dict[str, Any]:
     """Read one video as the reader does, then compare everything with the ground truth."""
     t = time.perf_counter()
     try:
-        perception = perceive_video(path)
+        perception = perceive_video(path, engines=engines)
     except CraftError as err:
         return {"path": path, "error": str(err), "questions": [q.key for q in questions]}
     perceived_s = time.perf_counter() - t
@@ -121,16 +135,10 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
         for b in ours_world.bodies:
             if not b.dynamic:
                 uid_map[b.uid] = b.uid
-    errors = []
+    errors: list[float] = []
     tt, ot = sim.trajectory, rec.simulation.trajectory
-    for ours_uid, true_uid in uid_map.items() if tt is not None else ():  # the original writes no trajectory
-        if ours_uid not in ot.ids or not ours_world.body(ours_uid).dynamic:
-            continue
-        a = ot.positions[1:, ot.column(ours_uid)]
-        b = tt.positions[1:, tt.column(true_uid)]
-        ax, ay = world_to_pixel(a[:, 0], a[:, 1])  # type: ignore[arg-type]
-        bx, by = world_to_pixel(b[:, 0], b[:, 1])  # type: ignore[arg-type]
-        errors.append(float(np.mean(np.hypot(np.asarray(ax) - bx, np.asarray(ay) - by))))
+    if tt is not None:  # the original simulator writes no trajectory
+        errors = _position_errors(uid_map, ours_world, ot, tt)
     our_events = _events(rec.simulation, uid_map)
     true_events = _events(sim)
     matched = _match_events(our_events, true_events)
@@ -160,7 +168,8 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
             "position_error_px": errors,
             "events_true": len(true_events), "events_ours": len(our_events), "events_matched": matched,
             "timings": {**perception.timings, "perception": perceived_s, "answering": answer_s},
-            "anchors": rec.anchors, "questions": records}
+            "anchors": rec.anchors, "physics": perception.scene.physics, "tried": list(rec.tried),
+            "questions": records}
 
 
 def main() -> None:
@@ -169,6 +178,8 @@ def main() -> None:
     parser.add_argument("--generate", type=int, help="generate a dataset of this many videos first (into --out)")
     parser.add_argument("--seed", type=int, default=777001, help="seed of the generated dataset")
     parser.add_argument("--out", help="folder of the generated dataset")
+    parser.add_argument("--engines", help="the reader's physics engines, in order (default: the reader's own choice, "
+                                          "pymunk then box2d); e.g. pymunk to compare")
     parser.add_argument("--engine", default="pymunk",
                         help="physics (and renderer) of the generated dataset: pymunk, box2d or original")
     parser.add_argument("--workers", type=int, default=2)
@@ -224,7 +235,8 @@ def main() -> None:
     t0 = time.perf_counter()
     results = []
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
-        for i, r in enumerate(pool.map(run_video, *zip(*jobs)), 1):
+        engines = [args.engines.split(",")] * len(jobs) if args.engines else [None] * len(jobs)
+        for i, r in enumerate(pool.map(run_video, *zip(*jobs), engines), 1):
             results.append(r)
             print(f"\r{i}/{len(jobs)} videos", end="", file=sys.stderr, flush=True)
     elapsed = time.perf_counter() - t0
@@ -285,12 +297,15 @@ def report(root: Path, results: list[dict[str, Any]], parts: dict[str, set[tuple
     perception = {
         "layout identified": f"{layout_ok}/{len(ok)} ({100 * layout_ok / max(len(ok), 1):.1f} %)",
         "attribute accuracy (objects read exactly)": f"{attrs}/{objects} ({100 * attrs / max(objects, 1):.2f} %)",
-        "mean position error (px, every step of every object)": f"{np.mean(pos):.3f} (median object "
-                                                                  f"{np.median(pos):.3f}, 90th pct "
-                                                                  f"{np.quantile(pos, 0.9):.2f})",
+        "mean position error (px, every step of every object)": (
+            f"{np.mean(pos):.3f} (median object {np.median(pos):.3f}, 90th pct {np.quantile(pos, 0.9):.2f})" if pos
+            else "not measured (no true trajectory: the original simulator writes start and end states only)"),
         "event precision": f"{100 * ev_match / max(ev_ours, 1):.2f} % ({ev_match}/{ev_ours})",
         "event recall": f"{100 * ev_match / max(ev_true, 1):.2f} % ({ev_match}/{ev_true})",
         "videos with re-anchored bodies": f"{sum(r['anchors'] > 0 for r in ok)}/{len(ok)}",
+        "physics kept (videos)": ", ".join(f"{name} {n}" for name, n in sorted(Counter(
+            r.get("physics") or "?" for r in ok).items())) + f" (a second engine tried on "
+            f"{sum(len(r.get('tried', [])) > 1 for r in ok)})",
     }
     lines += ["### Perception", "", "| metric | value |", "|---|---|"]
     pairs = [(p, ok_) for r in ok for p, ok_ in r.get("confidence", [])]
