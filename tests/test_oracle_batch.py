@@ -251,6 +251,7 @@ def test_rewards(sims: list[Simulation]) -> None:
     assert result.rewards(per_program).tolist() == [1.0, 0.0, 0.0, 0.0, 1.0]
     assert result.rewards(per_program, error=0.1).tolist() == [1.0, 0.0, 0.1, 0.0, 1.0]
     assert result.rewards([[1], None, 2, 3, "yes"]).tolist() == [0.0, 0.0, 0.0, 0.0, 1.0]
+    assert result.rewards(np.array(per_program, dtype=object)).tolist() == [1.0, 0.0, 0.0, 0.0, 1.0]
     with pytest.raises(CraftError, match="rewards: 2 gold answers for 5 programs"):
         result.rewards([1, 2])
 

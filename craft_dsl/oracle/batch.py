@@ -13,9 +13,9 @@ The work the programs share is done once:
   simulation; counterfactual event sets are computed once per (simulation, removed object) by the
   simulation's own cache;
 * token sequences (prefix, postfix), node lists and binding-free text are read by batch readers that keep
-  a memo of checked calls; anything they do not read exactly as the single-program readers do (unusual
-  spellings, integers out of range, text with ``Var`` bindings, text or node lists with errors) is read by
-  those readers, through a :class:`~craft_dsl.oracle.ProgramCache`, and its nodes join the same table.
+  a memo of checked calls; what they leave (other spellings of tokens and values, node lists of other shapes,
+  text with ``Var`` bindings or with errors) is read by the single-program readers, through a
+  :class:`~craft_dsl.oracle.ProgramCache`, and its nodes join the same table.
 
 Errors are told apart without building their messages: prefix tokens are read right to left on a stack of
 complete terms, which gives the syntax/type verdict of the left-to-right reader (the first error in reading
@@ -87,16 +87,6 @@ def _token_kinds() -> dict[str, _TokenKind | str]:
     return _TOKEN_KINDS
 
 
-#: The exact tokens of modules of one argument.
-_UNARY: list[str] = []
-
-
-def _token_unary() -> list[str]:
-    if not _UNARY:
-        _UNARY.extend(t for t, n in (_ARITY or _token_arity()).items() if n == 1)
-    return _UNARY
-
-
 #: Per exact token: its number of arguments (modules) or -1 (values).
 _ARITY: dict[str, int] = {}
 
@@ -145,6 +135,8 @@ class BatchResult:
         from ..verify import normalise_answer
 
         n = len(self.answers)
+        if isinstance(gold, np.ndarray):
+            gold = gold.tolist()
         if isinstance(gold, (str, bytes)) or not isinstance(gold, Sequence):
             golds: Sequence[Any] = [gold] * n
         elif len(gold) != n:
@@ -179,7 +171,7 @@ class _Batch:
         self.nodes = self.builder.nodes
         self.token_memo: dict[Any, Item] = {}
         #: Modules of one argument: per token, the memo by argument (cheaper than a (token, argument) key).
-        self.unary: dict[str, dict[Item, Item]] = {w: {} for w in _UNARY or _token_unary()}
+        self.unary: dict[str, dict[Item, Item]] = {}
         self.text_memo: dict[Any, int] = {}
         self.literal_memo: dict[tuple[str, int, Value], int] = {}
         self.node_memo: dict[Any, int] = {}
@@ -284,44 +276,51 @@ class _Batch:
         call = self._call
         stack: list[Item] = []
         push = stack.append
-        unary = self.unary.get
+        unary = self.unary
+        by_word = unary.get
         key: Any
         for word in reversed(words):
-            by_arg = unary(word)
-            if by_arg is not None:  # a module of one argument: its memo, by argument
-                if stack:
-                    top = stack[-1]
-                    item = by_arg.get(top)
+            by_arg = by_word(word)
+            if by_arg is None:
+                n = arity(word)
+                if n == -1:
+                    push(word)
+                    continue
+                if n == 0:
+                    item = lookup(word)
                     if item is None:
-                        item = by_arg[top] = call(kinds[word], (top,))  # type: ignore[arg-type]
-                    stack[-1] = item
-                else:
-                    push(_OPEN_OK)
-                continue
-            n = arity(word)
-            if n == -1:
-                push(word)
-            elif n == 0:
-                item = lookup(word)
+                        item = memo[word] = call(kinds[word], ())  # type: ignore[arg-type]
+                    push(item)
+                    continue
+                if n is None:
+                    if not _extra_token(word):
+                        return None
+                    push(word)
+                    continue
+                if n != 1:
+                    if len(stack) >= n:
+                        args = stack[-n:]
+                        args.reverse()
+                        key = (word, *args)
+                        item = lookup(key)
+                        if item is None:
+                            item = memo[key] = call(kinds[word], args)  # type: ignore[arg-type]
+                        del stack[-n:]
+                        push(item)
+                    else:  # fewer terms than arguments: the call runs past the end
+                        stack.reverse()
+                        stack[:] = [self._open(kinds[word], stack)]  # type: ignore[arg-type]
+                    continue
+                by_arg = unary[word] = {}
+            # A module of one argument (the most common token): its memo by argument.
+            if stack:
+                top = stack[-1]
+                item = by_arg.get(top)
                 if item is None:
-                    item = memo[word] = call(kinds[word], ())  # type: ignore[arg-type]
-                push(item)
-            elif n is None:
-                if not _extra_token(word):
-                    return None
-                push(word)
-            elif len(stack) >= n:
-                args = stack[-n:]
-                args.reverse()
-                key = (word, *args)
-                item = lookup(key)
-                if item is None:
-                    item = memo[key] = call(kinds[word], args)  # type: ignore[arg-type]
-                del stack[-n:]
-                push(item)
-            else:  # fewer terms than arguments: the call runs past the end
-                stack.reverse()
-                stack[:] = [self._open(kinds[word], stack)]  # type: ignore[arg-type]
+                    item = by_arg[top] = call(kinds[word], (top,))  # type: ignore[arg-type]
+                stack[-1] = item
+            else:
+                push(_OPEN_OK)
         top = stack[-1]
         if type(top) is str:  # the sequence starts with a value
             return _SYNTAX
@@ -353,7 +352,7 @@ class _Batch:
             if n == 1:
                 if not stack:
                     return _SYNTAX
-                by_arg = self.unary[word]
+                by_arg = self.unary.setdefault(word, {})
                 top = stack[-1]
                 item = by_arg.get(top)
                 if item is None:
