@@ -1,0 +1,250 @@
+"""How fast :func:`craft_dsl.oracle.run_batch` scores batches of programs, against the original CRAFT engine
+measured in the same run (a re-implementation of its executor, benchmarks/original_engine.py).
+
+Three workloads, each printed in programs per second and as a ratio to the original engine's rate:
+
+* **template programs**: every template with a valid instance on each of N live simulations plus E1 (1,228
+  programs over 21 simulations by default), fresh (never seen by the oracle), in every form, as one batch
+  with one simulation per program; also one ``run_batch`` call per program;
+* **sampled, one simulation**: 1,000 prefix token sequences over one simulation, drawn the way a half-trained
+  parser samples (see :func:`sample_programs`), for each of several simulations;
+* **sampled, many simulations**: S simulations (1,000 by default, loaded from the recorded files in turn, each
+  a separate object with its own caches) x 8 sampled programs of one of its questions, as one batch.
+
+The original engine runs the node lists of the sampled programs that type-check and return an answer type (it
+has no checker: the others are given to it for free); its rate is those programs per second. Our rate is the
+whole batch's programs per second, errors included. Simulations' own caches (event filters) are emptied
+before every timed pass; recorded files carry their counterfactual runs, which both engines read.
+
+    python benchmarks/oracle_batch.py [--sims 20] [--sampled-sims 1000] [--repeat 5]
+
+Targets: sampled on one simulation >= 20x, 1,000 simulations x 8 >= 8x, fresh template programs as node lists
+>= 3x, as tokens and text >= 2x.
+"""
+
+from __future__ import annotations
+
+import argparse
+import random
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from oracle_speed import recorded, same
+from original_engine import OriginalScene, answer_question
+
+from craft_dsl import Program, Simulation, load_simulation
+from craft_dsl.oracle import run_batch
+from craft_dsl.oracle.outcome import check_outcome
+from craft_dsl.templates import first_instances
+from craft_dsl.tokens import program_vocabulary
+from craft_dsl.vocabulary import COLORS, SHAPES, SIZES
+
+#: Share of samples that are the gold program unchanged, and how many token edits the others get.
+P_GOLD = 0.7
+EDITS = ((1, 0.7), (2, 0.3))
+
+
+def _token_kinds() -> dict[str, list[str]]:
+    vocab = program_vocabulary()
+    kinds: dict[str, list[str]] = {"color": list(COLORS), "shape": list(SHAPES), "size": list(SIZES),
+                                   "integer": ["0", "-1"]}
+    words = {w for ws in kinds.values() for w in ws}
+    kinds["module"] = [t for t in vocab if t not in words]
+    return kinds
+
+
+KINDS = _token_kinds()
+KIND_OF = {t: k for k, ts in KINDS.items() for t in ts}
+VOCABULARY = program_vocabulary()
+
+
+def sample_programs(gold: Sequence[str], n: int, rng: random.Random) -> list[list[str]]:
+    """``n`` token sequences as a half-trained parser samples them for one question: the gold sequence with
+    probability :data:`P_GOLD`, else the gold with 1 (70%) or 2 (30%) random edits, each at a uniformly drawn
+    position: a token of the same kind (a module for a module, a colour for a colour...) 60%, any vocabulary
+    token 20%, a deleted token 10%, an inserted vocabulary token 10%."""
+    out = []
+    for _ in range(n):
+        tokens = list(gold)
+        if rng.random() >= P_GOLD:
+            edits = 1 if rng.random() < EDITS[0][1] else 2
+            for _ in range(edits):
+                pos = rng.randrange(len(tokens))
+                op = rng.random()
+                if op < 0.6:
+                    tokens[pos] = rng.choice(KINDS[KIND_OF[tokens[pos]]])
+                elif op < 0.8:
+                    tokens[pos] = rng.choice(VOCABULARY)
+                elif op < 0.9 and len(tokens) > 1:
+                    del tokens[pos]
+                else:
+                    tokens.insert(pos, rng.choice(VOCABULARY))
+        out.append(tokens)
+    return out
+
+
+def clear_caches(sims: Sequence[Simulation]) -> None:
+    """Empty the event-filter memos of the simulations and their counterfactual runs (kept: the runs)."""
+    for sim in {id(s): s for s in sims}.values():
+        sim.memo.clear()
+        for cf in sim._cf_cache.values():
+            cf.memo.clear()
+
+
+def best_time(fn: Callable[[], Any], repeat: int, before: Callable[[], None] | None = None) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        if before is not None:
+            before()
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def original_nodes(programs: Sequence[Sequence[str]]) -> list[list[dict[str, Any]] | None]:
+    """The node list of every sample that type-checks to an answer (None for the others)."""
+    out: list[list[dict[str, Any]] | None] = []
+    for tokens in programs:
+        outcome, program = check_outcome(list(tokens), "prefix")
+        out.append(None if program is None else program.to_nodes())
+    return out
+
+
+def run_original(scene: OriginalScene, nodes: list[dict[str, Any]]) -> Any:
+    """The original engine's answer; a program it fails on (FilterObjectsFromEvents of the Start event, ...)
+    counts as run."""
+    try:
+        return answer_question(scene, nodes)
+    except (IndexError, AssertionError, KeyError, TypeError):
+        return None
+
+
+def row(label: str, n: int, seconds: float, base: float, target: float | None = None) -> None:
+    rate = n / seconds
+    goal = f">= {target:g}x" if target else ""
+    print(f"  {label:44} {rate:11,.0f} {rate / base:9.2f}x  {goal}")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--sims", type=int, default=20, help="live simulations to record besides E1 (default 20)")
+    ap.add_argument("--sampled-sims", type=int, default=1000, help="simulations of the many-simulation batch")
+    ap.add_argument("--samples", type=int, default=1000, help="programs of the one-simulation batch")
+    ap.add_argument("--one-sim-batches", type=int, default=21,
+                    help="simulations to draw one-simulation batches on (default 21: all)")
+    ap.add_argument("--repeat", type=int, default=5, help="passes per measurement; the best is kept (default 5)")
+    ap.add_argument("--seed", type=int, default=0)
+    args = ap.parse_args()
+    rng = random.Random(args.seed)
+    with tempfile.TemporaryDirectory() as tmp:
+        datas = recorded(args.sims, Path(tmp))
+    sims = [load_simulation(d) for d in datas]
+    scenes = [OriginalScene(d) for d in datas]
+    questions: list[list[Program]] = [[p for _t, _p, p, _a in first_instances(s, include_dropped=True)] for s in sims]
+
+    # -- template programs -----------------------------------------------------------------------------------
+    items = [(sim, scene, p) for sim, scene, ps in zip(sims, scenes, questions) for p in ps]
+    work_sims = [sim for sim, _s, _p in items]
+    nodes = [p.to_nodes() for _s, _sc, p in items]
+    forms: dict[str, list[Any]] = {
+        "nodes": nodes, "prefix": [p.to_tokens("prefix") for *_x, p in items],
+        "postfix": [p.to_tokens("postfix") for *_x, p in items], "text": [str(p) for *_x, p in items]}
+    for (sim, scene, p), n_list in zip(items, nodes):
+        assert same(p.run(sim), answer_question(scene, n_list)), str(p)
+    for form, programs in forms.items():  # the batch agrees with the original before anything is timed
+        result = run_batch(programs, work_sims, form=form)  # type: ignore[arg-type]
+        assert result.counts()["answer"] == len(items), form
+        for (_sim, scene, _p), n_list, answer in zip(items, nodes, result.answers):
+            assert same(answer, answer_question(scene, n_list)), form
+    n = len(items)
+    print(f"template programs: {n} over {len(sims)} simulations, best of {args.repeat} passes")
+    print(f"  {'path':44} {'programs/s':>11} {'x original':>10}")
+    base_t = best_time(lambda: [answer_question(scene, n_list) for (_s, scene, _p), n_list in zip(items, nodes)],
+                       args.repeat)
+    base = n / base_t
+    row("original engine (node lists)", n, base_t, base)
+    targets = {"nodes": 3.0, "prefix": 2.0, "postfix": 2.0, "text": 2.0}
+    for form, programs in forms.items():
+        t = best_time(lambda programs=programs, form=form: run_batch(programs, work_sims, form=form),  # type: ignore[misc]
+                      args.repeat, lambda: clear_caches(work_sims))
+        row(f"run_batch, fresh {form}, one batch", n, t, base, targets[form])
+    for form in ("nodes", "prefix", "text"):
+        programs = forms[form]
+        t = best_time(lambda programs=programs, form=form: [  # type: ignore[misc]
+            run_batch([p], s, form=form) for p, s in zip(programs, work_sims)], args.repeat,
+            lambda: clear_caches(work_sims))
+        row(f"run_batch, fresh {form}, one call each", n, t, base)
+
+    # -- sampled, one simulation ---------------------------------------------------------------------------------
+    print(f"\nsampled prefix tokens, one simulation: {args.samples} programs per batch; (a) samples of all the "
+          "simulation's questions, (b) samples of one question")
+    print(f"  {'simulation':30} {'(a) programs/s':>15} {'x original':>10} {'distinct':>9} {'not answers':>12}   "
+          f"{'(b) x original':>14} {'distinct':>9}")
+    ratios: dict[str, list[float]] = {"a": [], "b": []}
+    for k in range(min(args.one_sim_batches, len(sims))):
+        sim, scene = sims[k], scenes[k]
+        golds = [p.to_tokens("prefix") for p in questions[k]]
+        row_out = []
+        for variant in ("a", "b"):
+            if variant == "a":
+                batch = [sample_programs(rng.choice(golds), 1, rng)[0] for _ in range(args.samples)]
+            else:
+                batch = sample_programs(rng.choice(golds), args.samples, rng)
+            orig = [x for x in original_nodes(batch) if x is not None]
+            result = run_batch(batch, sim, form="prefix")
+            t_orig = best_time(lambda orig=orig, scene=scene: [run_original(scene, x) for x in orig],  # type: ignore[misc]
+                               args.repeat)
+            t_ours = best_time(lambda batch=batch, sim=sim: run_batch(batch, sim, form="prefix"),  # type: ignore[misc]
+                               args.repeat, lambda sim=sim: clear_caches([sim]))  # type: ignore[misc]
+            ours, theirs = len(batch) / t_ours, len(orig) / t_orig
+            ratios[variant].append(ours / theirs)
+            row_out.append((ours, ours / theirs, len({tuple(b) for b in batch}),
+                            1 - result.counts()["answer"] / len(batch)))
+        (a_rate, a_ratio, a_distinct, a_not), (_b_rate, b_ratio, b_distinct, _b_not) = row_out
+        print(f"  {k:<3} ({len(golds)} questions){'':13} {a_rate:15,.0f} {a_ratio:9.2f}x {a_distinct:9} "
+              f"{a_not:12.0%}   {b_ratio:13.2f}x {b_distinct:9}")
+    for variant, values in ratios.items():
+        values.sort()
+        print(f"  ({variant}) median {values[len(values) // 2]:.2f}x, lowest {values[0]:.2f}x, highest "
+              f"{values[-1]:.2f}x   target >= 20x")
+
+    # -- sampled, many simulations ---------------------------------------------------------------------------------
+    s_count = args.sampled_sims
+    print(f"\nsampled prefix tokens, {s_count} simulations x 8 programs (loading the simulations...)")
+    many_sims: list[Simulation] = []
+    many_scenes: list[OriginalScene] = []
+    programs: list[list[str]] = []
+    prog_sims: list[Simulation] = []
+    prog_scenes: list[OriginalScene] = []
+    for k in range(s_count):
+        j = k % len(datas)
+        sim = load_simulation(datas[j])
+        scene = OriginalScene(datas[j])
+        many_sims.append(sim)
+        many_scenes.append(scene)
+        gold = rng.choice(questions[j]).to_tokens("prefix")
+        for tokens in sample_programs(gold, 8, rng):
+            programs.append(tokens)
+            prog_sims.append(sim)
+            prog_scenes.append(scene)
+    orig_work = [(scene, x) for scene, x in zip(prog_scenes, original_nodes(programs)) if x is not None]
+    result = run_batch(programs, prog_sims, form="prefix")
+    t_orig = best_time(lambda: [run_original(scene, x) for scene, x in orig_work], args.repeat)
+    t_ours = best_time(lambda: run_batch(programs, prog_sims, form="prefix"), args.repeat,
+                       lambda: clear_caches(many_sims))
+    ours, theirs = len(programs) / t_ours, len(orig_work) / t_orig
+    counts = result.counts()
+    print(f"  {len(programs)} programs, {len({tuple(p) for p in programs})} distinct, "
+          f"{1 - counts['answer'] / len(programs):.0%} not answers")
+    print(f"  original engine: {theirs:,.0f} programs/s   run_batch: {ours:,.0f} programs/s   "
+          f"{ours / theirs:.2f}x   target >= 8x")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
