@@ -36,7 +36,7 @@ from typing import Any
 from oracle_speed import recorded, same
 from original_engine import OriginalScene, answer_question
 
-from craft_dsl import Program, Simulation, load_simulation
+from craft_dsl import CraftError, Program, Simulation, load_simulation
 from craft_dsl.oracle import run_batch
 from craft_dsl.oracle.outcome import check_outcome
 from craft_dsl.templates import first_instances
@@ -95,14 +95,20 @@ def clear_caches(sims: Sequence[Simulation]) -> None:
             cf.memo.clear()
 
 
-def best_time(fn: Callable[[], Any], repeat: int, before: Callable[[], None] | None = None) -> float:
-    best = float("inf")
+Path_ = tuple[Callable[[], Any], Callable[[], None] | None]
+
+
+def best_times(paths: dict[str, Path_], repeat: int) -> dict[str, float]:
+    """The best time of every path over ``repeat`` rounds. The paths take turns within each round, so that a
+    machine busy with other work slows them alike; a path's ``before`` (untimed) runs before each of its turns."""
+    best = dict.fromkeys(paths, float("inf"))
     for _ in range(repeat):
-        if before is not None:
-            before()
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
+        for label, (fn, before) in paths.items():
+            if before is not None:
+                before()
+            t0 = time.perf_counter()
+            fn()
+            best[label] = min(best[label], time.perf_counter() - t0)
     return best
 
 
@@ -110,8 +116,11 @@ def original_nodes(programs: Sequence[Sequence[str]]) -> list[list[dict[str, Any
     """The node list of every sample that type-checks to an answer (None for the others)."""
     out: list[list[dict[str, Any]] | None] = []
     for tokens in programs:
-        outcome, program = check_outcome(list(tokens), "prefix")
-        out.append(None if program is None else program.to_nodes())
+        _outcome, program = check_outcome(list(tokens), "prefix")
+        try:
+            out.append(None if program is None else program.to_nodes())
+        except CraftError:  # an integer literal (FilterMoving(..., 0)): the original's node lists have none
+            out.append(None)
     return out
 
 
@@ -162,23 +171,24 @@ def main() -> int:
         for (_sim, scene, _p), n_list, answer in zip(items, nodes, result.answers):
             assert same(answer, answer_question(scene, n_list)), form
     n = len(items)
-    print(f"template programs: {n} over {len(sims)} simulations, best of {args.repeat} passes")
+    print(f"template programs: {n} over {len(sims)} simulations, best of {args.repeat} interleaved passes")
     print(f"  {'path':44} {'programs/s':>11} {'x original':>10}")
-    base_t = best_time(lambda: [answer_question(scene, n_list) for (_s, scene, _p), n_list in zip(items, nodes)],
-                       args.repeat)
-    base = n / base_t
-    row("original engine (node lists)", n, base_t, base)
-    targets = {"nodes": 3.0, "prefix": 2.0, "postfix": 2.0, "text": 2.0}
+    paths: dict[str, Path_] = {"original engine (node lists)": (
+        lambda: [answer_question(scene, n_list) for (_s, scene, _p), n_list in zip(items, nodes)], None)}
+    fresh = lambda: clear_caches(work_sims)  # noqa: E731
     for form, programs in forms.items():
-        t = best_time(lambda programs=programs, form=form: run_batch(programs, work_sims, form=form),  # type: ignore[misc]
-                      args.repeat, lambda: clear_caches(work_sims))
-        row(f"run_batch, fresh {form}, one batch", n, t, base, targets[form])
+        paths[f"run_batch, fresh {form}, one batch"] = (
+            lambda programs=programs, form=form: run_batch(programs, work_sims, form=form), fresh)  # type: ignore[misc]
     for form in ("nodes", "prefix", "text"):
-        programs = forms[form]
-        t = best_time(lambda programs=programs, form=form: [  # type: ignore[misc]
-            run_batch([p], s, form=form) for p, s in zip(programs, work_sims)], args.repeat,
-            lambda: clear_caches(work_sims))
-        row(f"run_batch, fresh {form}, one call each", n, t, base)
+        paths[f"run_batch, fresh {form}, one call each"] = (
+            lambda programs=forms[form], form=form: [  # type: ignore[misc]
+                run_batch([p], s, form=form) for p, s in zip(programs, work_sims)], fresh)
+    times = best_times(paths, args.repeat)
+    base = n / times["original engine (node lists)"]
+    targets = {"nodes": 3.0, "prefix": 2.0, "postfix": 2.0, "text": 2.0}
+    for label, t in times.items():
+        form = label.split()[2].rstrip(",") if label.endswith("one batch") else ""
+        row(label, n, t, base, targets.get(form))
 
     # -- sampled, one simulation ---------------------------------------------------------------------------------
     print(f"\nsampled prefix tokens, one simulation: {args.samples} programs per batch; (a) samples of all the "
@@ -197,11 +207,11 @@ def main() -> int:
                 batch = sample_programs(rng.choice(golds), args.samples, rng)
             orig = [x for x in original_nodes(batch) if x is not None]
             result = run_batch(batch, sim, form="prefix")
-            t_orig = best_time(lambda orig=orig, scene=scene: [run_original(scene, x) for x in orig],  # type: ignore[misc]
-                               args.repeat)
-            t_ours = best_time(lambda batch=batch, sim=sim: run_batch(batch, sim, form="prefix"),  # type: ignore[misc]
-                               args.repeat, lambda sim=sim: clear_caches([sim]))  # type: ignore[misc]
-            ours, theirs = len(batch) / t_ours, len(orig) / t_orig
+            times = best_times({
+                "original": (lambda orig=orig, scene=scene: [run_original(scene, x) for x in orig], None),  # type: ignore[misc]
+                "ours": (lambda batch=batch, sim=sim: run_batch(batch, sim, form="prefix"),  # type: ignore[misc]
+                         lambda sim=sim: clear_caches([sim]))}, args.repeat)  # type: ignore[misc]
+            ours, theirs = len(batch) / times["ours"], len(orig) / times["original"]
             ratios[variant].append(ours / theirs)
             row_out.append((ours, ours / theirs, len({tuple(b) for b in batch}),
                             1 - result.counts()["answer"] / len(batch)))
@@ -234,10 +244,11 @@ def main() -> int:
             prog_scenes.append(scene)
     orig_work = [(scene, x) for scene, x in zip(prog_scenes, original_nodes(programs)) if x is not None]
     result = run_batch(programs, prog_sims, form="prefix")
-    t_orig = best_time(lambda: [run_original(scene, x) for scene, x in orig_work], args.repeat)
-    t_ours = best_time(lambda: run_batch(programs, prog_sims, form="prefix"), args.repeat,
-                       lambda: clear_caches(many_sims))
-    ours, theirs = len(programs) / t_ours, len(orig_work) / t_orig
+    times = best_times({
+        "original": (lambda: [run_original(scene, x) for scene, x in orig_work], None),
+        "ours": (lambda: run_batch(programs, prog_sims, form="prefix"), lambda: clear_caches(many_sims))},
+        args.repeat)
+    ours, theirs = len(programs) / times["ours"], len(orig_work) / times["original"]
     counts = result.counts()
     print(f"  {len(programs)} programs, {len({tuple(p) for p in programs})} distinct, "
           f"{1 - counts['answer'] / len(programs):.0%} not answers")

@@ -132,6 +132,11 @@ def test_edited_node_lists_and_texts_as_alone(sims: list[Simulation]) -> None:
         for _ in range(4):
             i = rng.randrange(len(text))
             texts.append(text[:i] + rng.choice(['"', "(", ")", ",", "x", " ", "Events()", '"red"']) + text[i + 1:])
+        quoted = text.split('"')
+        for _ in range(4):  # other quoted values: other words, other spellings, no words
+            values = [rng.choice(["red", "Blue", "cube", "small", "purple", "0", "", "red blue", "\u201cred"])
+                      if k % 2 else part for k, part in enumerate(quoted)]
+            texts.append('"'.join(values))
     result = assert_same(nodes, sim, "nodes")
     assert result.counts()["syntax_error"] and result.counts()["type_error"] and result.counts()["answer"]
     assert_same(texts, sim, "text")

@@ -28,6 +28,7 @@ the batch. Simulations keep their own caches (counterfactual runs, event filters
 from __future__ import annotations
 
 import gc
+import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, cast
@@ -173,10 +174,13 @@ class _Batch:
         #: Modules of one argument: per token, the memo by argument (cheaper than a (token, argument) key).
         self.unary: dict[str, dict[Item, Item]] = {}
         self.text_memo: dict[Any, int] = {}
+        self.recipes: dict[tuple[str, ...], Any] = {}
         self.literal_memo: dict[tuple[str, int, Value], int] = {}
         self.node_memo: dict[Any, int] = {}
+        self.node_unary: dict[Any, dict[int, int]] = {}
         self.cache = ProgramCache(maxsize=1 << 30)
         self.schedules: dict[int, tuple[int, ...]] = {}
+        self.roots_met: set[int] = set()
         self.ops: list[_Operation] = []
 
     # -- tokens ------------------------------------------------------------------------------------------
@@ -383,87 +387,139 @@ class _Batch:
     # -- text --------------------------------------------------------------------------------------------
 
     def read_text(self, text: str) -> int | None:
-        """Binding-free text, as :func:`craft_dsl.parser.fast_check` reads it, with a memo of checked calls;
-        None for anything that reader gives up on (errors included)."""
+        """Binding-free text, as :func:`craft_dsl.parser.fast_check` reads it; None for anything that reader gives
+        up on (errors included).
+
+        Texts that differ only in their quoted values (``"red"`` for ``"blue"``) have one skeleton, read once into
+        a recipe: the calls whose arguments hold no quoted value are checked when the recipe is made; a text runs
+        only the calls that take its values."""
+        parts = _QUOTED.split(text)
+        skeleton = tuple(parts[0::2])
+        recipe = self.recipes.get(skeleton)
+        if recipe is None:
+            recipe = self.recipes[skeleton] = self._text_recipe(text)
+        if recipe is _NO_RECIPE:
+            return None
+        steps, root = recipe  # type: ignore[misc]
+        if not steps:
+            return root
+        values = parts[1::2]
+        results: list[int] = []
+        try:
+            for tok, spec, sources in steps:
+                args: list[Any] = []
+                for kind, ref, k in sources:
+                    if kind == _CONSTANT:
+                        args.append(ref)
+                    elif kind == _STEP:
+                        args.append(results[ref])
+                    elif kind == _INPUT_VALUE:
+                        args.append(self._text_literal(spec, k, values[ref]))
+                    else:
+                        args.append(values[ref])
+                results.append(self._text_call(tok, spec, args))
+        except (ProgramError, _GiveUp):
+            return None
+        return results[-1]
+
+    def _text_recipe(self, text: str) -> tuple[list[_Step], int] | object:
+        """The recipe of a text's skeleton: ``(steps, root)``, where ``steps`` are the calls that take quoted
+        values (directly or through their arguments), in order, the last one the answer, and ``root`` is the
+        answer's node when no call takes one; :data:`_NO_RECIPE` where :func:`~craft_dsl.parser.fast_check`
+        gives up on every text of this skeleton. Follows that reader token by token."""
         toks = _FAST_TOKEN.findall(text)
         if not toks or "Var" in toks:
-            return None
+            return _NO_RECIPE
         shape_of = _TEXT_SHAPES.get
-        frames: list[tuple[str, ModuleSpec, int, int, list[Any]]] = []
+        steps: list[_Step] = []
+        frames: list[tuple[str, ModuleSpec, int, int, list[_Source]]] = []
+        quoted = 0  # quoted tokens so far: the index of the next one among the text's values
         n = len(toks)
         i = 0
         try:
             while True:
                 tok = toks[i]
                 first = tok[0]
-                value: Value
-                node: int | None
+                source: _Source | None  # a call's result, or None for a value
+                value: Value | None = None
                 if first in _NAME_START:
                     if toks[i + 1] != "(":
-                        return None
+                        return _NO_RECIPE
                     shape = shape_of(tok)
                     if shape is None:
-                        return None
-                    frame: tuple[str, ModuleSpec, int, int, list[Any]] = (tok, *shape, [])
+                        return _NO_RECIPE
+                    frame: tuple[str, ModuleSpec, int, int, list[_Source]] = (tok, *shape, [])
                     i += 2
                     if toks[i] != ")":
                         frames.append(frame)
                         continue
                     i += 1
-                    node = self._close_text(frame)
-                    value = 0
+                    source = self._recipe_close(frame, steps)
                 elif first == '"':
-                    node, value = None, tok[1:-1]
+                    source = None
+                    quoted += 1
                     i += 1
                 elif first in _INT_START and tok != "-":
-                    node, value = None, integer_literal(tok)
+                    source, value = None, integer_literal(tok)
                     i += 1
                 else:
-                    return None
+                    return _NO_RECIPE
                 while True:  # deliver the value to the call it is an argument of
                     if not frames:
-                        if i != n or node is None:
-                            return None
-                        return node
+                        if i != n or source is None:
+                            return _NO_RECIPE
+                        return (steps, source[1]) if source[0] == _CONSTANT else (steps, -1)
                     _tok, spec, n_inputs, arity, args = frames[-1]
                     k = len(args)
                     if k < n_inputs:
-                        args.append(node if node is not None else self._text_literal(spec, k, value))
-                    elif k < arity and node is None and isinstance(value, str):
-                        args.append(value)
+                        if source is not None:
+                            args.append(source)
+                        elif value is not None:  # an integer
+                            args.append((_CONSTANT, self._text_literal(spec, k, value), k))
+                        else:
+                            args.append((_INPUT_VALUE, quoted - 1, k))
+                    elif k < arity and source is None and value is None:
+                        args.append((_SIDE_VALUE, quoted - 1, k))
                     else:
-                        return None
+                        return _NO_RECIPE
                     tok = toks[i]
                     i += 1
                     if tok == ",":
                         break
                     if tok != ")":
-                        return None
-                    node = self._close_text(frames.pop())
+                        return _NO_RECIPE
+                    source, value = self._recipe_close(frames.pop(), steps), None
         except (IndexError, ValueError, ProgramError, _GiveUp):
-            return None
+            return _NO_RECIPE
+
+    def _recipe_close(self, frame: tuple[str, ModuleSpec, int, int, list[_Source]], steps: list[_Step]) -> _Source:
+        """A call of a recipe: checked now if it takes no quoted value, else a step."""
+        tok, spec, _n_inputs, arity, args = frame
+        if len(args) != arity:
+            raise _GiveUp
+        if all(kind == _CONSTANT for kind, _ref, _k in args):
+            return (_CONSTANT, self._text_call(tok, spec, [ref for _kind, ref, _k in args]), 0)
+        steps.append((tok, spec, tuple(args)))
+        return (_STEP, len(steps) - 1, 0)
+
+    def _text_call(self, tok: str, spec: ModuleSpec, args: list[Any]) -> int:
+        key = (tok, *args)
+        found = self.text_memo.get(key)
+        if found is None:
+            try:
+                found = self.builder.call(spec, args[:spec.n_inputs], args[spec.n_inputs:])
+            except ProgramError:
+                found = -1
+            self.text_memo[key] = found
+        if found < 0:
+            raise _GiveUp
+        return found
 
     def _text_literal(self, spec: ModuleSpec, k: int, value: Value) -> int:
         key = (spec.name, k, value)
         found = self.literal_memo.get(key)
         if found is None:
             found = self.literal_memo[key] = self.builder.input_literal(spec, k, value, None)
-        return found
-
-    def _close_text(self, frame: tuple[str, ModuleSpec, int, int, list[Any]]) -> int:
-        tok, spec, n_inputs, arity, args = frame
-        if len(args) != arity:
-            raise _GiveUp
-        key = (tok, *args)
-        found = self.text_memo.get(key)
-        if found is None:
-            try:
-                found = self.builder.call(spec, args[:n_inputs], args[n_inputs:])
-            except ProgramError:
-                found = -1
-            self.text_memo[key] = found
-        if found < 0:
-            raise _GiveUp
         return found
 
     # -- node lists --------------------------------------------------------------------------------------
@@ -480,6 +536,7 @@ class _Batch:
 
     def _read_nodes(self, nodes: list[Any]) -> int | None:
         memo = self.node_memo
+        unary = self.node_unary
         shapes: Callable[[Any], Any] = _NODE_SHAPES.get  # any hashable "type" may be looked up
         built: list[int] = []
         key: Any
@@ -494,10 +551,32 @@ class _Batch:
             n_inputs = shape[1]
             if len(inputs) != n_inputs:
                 return None
+            sides = node.get("value_inputs")
+            if not sides and (sides is None or len(node) > 3):  # as `value_inputs or side_inputs` is read
+                sides = node.get("side_inputs")
+            if sides:
+                if type(sides) is not list or len(sides) != shape[3]:
+                    return None
+                for v in sides:
+                    if type(v) is not str or v[:1] == "<":
+                        return None
+            elif shape[3]:
+                return None
             if n_inputs == 1:
                 i = inputs[0]
                 if type(i) is not int or not 0 <= i < k:
                     return None
+                if not sides:  # the most common node: one input, no side input; a memo per name
+                    by_input = unary.get(name)
+                    if by_input is None:
+                        by_input = unary[name] = {}
+                    found = by_input.get(built[i])
+                    if found is None:
+                        found = by_input[built[i]] = self._node_call(shape, [built[i]], ())
+                    if found < 0:
+                        return _TYPE
+                    built.append(found)
+                    continue
                 key = (name, built[i])
             elif n_inputs == 0:
                 key = name
@@ -506,27 +585,22 @@ class _Batch:
                     if type(i) is not int or not 0 <= i < k:
                         return None
                 key = (name, *[built[i] for i in inputs])
-            sides = node.get("value_inputs") or node.get("side_inputs")
             if sides:
-                if type(sides) is not list or len(sides) != shape[3]:
-                    return None
-                for v in sides:
-                    if type(v) is not str or v[:1] == "<":
-                        return None
                 key = (key, *sides)
-            elif shape[3]:
-                return None
             found = memo.get(key)
             if found is None:
-                args = [built[i] for i in inputs]
-                reorder = shape[2]
-                if reorder is not None:
-                    args = [args[j] for j in reorder]
-                found = memo[key] = self._checked_call(shape[0], args, sides or ())
+                found = memo[key] = self._node_call(shape, [built[i] for i in inputs], sides or ())
             if found < 0:
                 return _TYPE
             built.append(found)
         return built[-1]
+
+    def _node_call(self, shape: tuple[ModuleSpec, int, tuple[int, ...] | None, int], args: list[int],
+                   sides: Sequence[str]) -> int:
+        reorder = shape[2]
+        if reorder is not None:
+            args = [args[j] for j in reorder]
+        return self._checked_call(shape[0], args, sides)
 
     # -- programs read alone -------------------------------------------------------------------------------
 
@@ -585,14 +659,28 @@ class _Batch:
         """The value of every node the ``roots`` need, on ``sim``: each node once. A node that raises
         (a counterfactual the simulation cannot give, a state index out of range) is INVALID, as are the nodes
         that take it as input; a program that needs it is INVALID, as it is when run alone."""
-        distinct = set(roots)
-        if len(distinct) == 1:
-            order: Sequence[int] = self.schedule(roots[0])
-        else:
-            needed: set[int] = set()
-            for r in distinct:
-                needed.update(self.schedule(r))
-            order = sorted(needed)
+        # The needed nodes: a root met in an earlier group has its closure cached; the others are walked once,
+        # sharing the walk with the group's other roots.
+        nodes, schedules, met = self.nodes, self.schedules, self.roots_met
+        needed: set[int] = set()
+        for r in set(roots):
+            closure = schedules.get(r)
+            if closure is None and r in met:
+                closure = self.schedule(r)
+            if closure is not None:
+                needed.update(closure)
+                continue
+            met.add(r)
+            if r in needed:
+                continue
+            needed.add(r)
+            stack = [r]
+            while stack:
+                for j in nodes[stack.pop()][1]:
+                    if j not in needed:
+                        needed.add(j)
+                        stack.append(j)
+        order = sorted(needed)
         ops = self._operations()
         slots: dict[int, Any] = {}
         invalid = INVALID
@@ -661,6 +749,15 @@ def _canonical(value: str, typ: DslType) -> str | None:
     table = _VALUES[typ]
     found = table.get(value)
     return found if found is not None else table.get(value.strip().lower())
+
+
+#: Where an argument of a text recipe's call comes from: (kind, reference, argument position).
+_Source = tuple[int, int, int]
+_CONSTANT, _STEP, _INPUT_VALUE, _SIDE_VALUE = range(4)  # a node; a step's result; a quoted value as input / side
+_Step = tuple[str, ModuleSpec, tuple[_Source, ...]]
+_NO_RECIPE = object()
+#: A quoted value, as the text reader's scanner finds it (craft_dsl.parser._FAST_TOKEN).
+_QUOTED = re.compile('"([^"\u201c\u201d\n]*)"')
 
 
 class _GiveUp(Exception):
