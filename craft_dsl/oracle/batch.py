@@ -662,42 +662,48 @@ class _Batch:
         # The needed nodes: a root met in an earlier group has its closure cached; the others are walked once,
         # sharing the walk with the group's other roots.
         nodes, schedules, met = self.nodes, self.schedules, self.roots_met
-        needed: set[int] = set()
-        for r in set(roots):
-            closure = schedules.get(r)
-            if closure is None and r in met:
-                closure = self.schedule(r)
-            if closure is not None:
-                needed.update(closure)
-                continue
-            met.add(r)
-            if r in needed:
-                continue
-            needed.add(r)
-            stack = [r]
-            while stack:
-                for j in nodes[stack.pop()][1]:
-                    if j not in needed:
-                        needed.add(j)
-                        stack.append(j)
-        order = sorted(needed)
-        ops = self._operations()
+        distinct = set(roots)
+        order: Sequence[int]
+        if len(distinct) == 1:
+            order = self.schedule(roots[0])
+        else:
+            needed: set[int] = set()
+            for r in distinct:
+                closure = schedules.get(r)
+                if closure is None and r in met:
+                    closure = self.schedule(r)
+                if closure is not None:
+                    needed.update(closure)
+                    continue
+                met.add(r)
+                if r in needed:
+                    continue
+                needed.add(r)
+                stack = [r]
+                while stack:
+                    for j in nodes[stack.pop()][1]:
+                        if j not in needed:
+                            needed.add(j)
+                            stack.append(j)
+            order = sorted(needed)
+        ops = self.ops if len(self.ops) == len(nodes) else self._operations()
+        one, one_side, literal, none, two = _ONE, _ONE_SIDE, _LITERAL, _NONE, _TWO
         slots: dict[int, Any] = {}
         invalid = INVALID
         for g in order:
             code, impl, a, b, v = ops[g]
             try:
-                if code == _ONE:
+                if code == one:
                     x = slots[a]
                     slots[g] = invalid if x is invalid else impl(sim, x)
-                elif code == _ONE_SIDE:
+                elif code == one_side:
                     x = slots[a]
                     slots[g] = invalid if x is invalid else impl(sim, x, v)
-                elif code == _LITERAL:
+                elif code == literal:
                     slots[g] = v
-                elif code == _NONE:
+                elif code == none:
                     slots[g] = impl(sim)
-                elif code == _TWO:
+                elif code == two:
                     x, y = slots[a], slots[b]
                     slots[g] = invalid if x is invalid or y is invalid else impl(sim, x, y)
                 else:
