@@ -142,7 +142,8 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
     our_events = _events(rec.simulation, uid_map)
     true_events = _events(sim)
     matched = _match_events(our_events, true_events)
-    exact = SceneModel(export_perceived(sim)).simulation()
+    # the exact perceived scene of the truth (needs its trajectory: none for the original simulator's runs)
+    exact = SceneModel(export_perceived(sim)).simulation() if tt is not None else None
     records = []
     for q, a in zip(questions, answers):
         truth = truth_answers[q.key]
@@ -153,7 +154,7 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
             family = family_of(stats["template_ids"][q.key])
             if not answers_agree(to_json(program.run(sim), original=True), truth):
                 stage = "program"
-            elif not answers_agree(to_json(program.run(exact), original=True), truth):
+            elif exact is not None and not answers_agree(to_json(program.run(exact), original=True), truth):
                 stage = "execution"
             elif perception.layout.scene != stats["scene"] or attributes_ok < len(true_triples):
                 stage = "perception: layout or attributes"
