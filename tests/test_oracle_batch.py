@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import gc
 import random
+import re
 from collections.abc import Sequence
 from typing import Any
 
@@ -163,6 +164,9 @@ def test_drawn_programs_as_alone(e1: Simulation, program: Program, form: str, rn
     batch: list[Any] = [in_form(program, form)]
     if form != "text":
         batch += [token_edits(batch[0], rng) for _ in range(4)]
+    else:  # the text again, and with its quoted values and integers changed
+        batch += [batch[0], re.sub(r'"[^"]*"|\b\d+\b', lambda m: rng.choice(['"red"', '"cube"', "1", '"large"']),
+                                   batch[0])]
     for sim in (e1, _basic()):
         assert_same(batch, sim, form)
 

@@ -814,6 +814,8 @@ def run_batch(programs: Sequence[Any], sims: Simulation | Sequence[Simulation],
     else:
         raise CraftError(f"run_batch: sims must be a Simulation or a list of them, found {type(sims).__name__}")
 
+    if n == 1:  # nothing to share: the single-program path
+        return _one(programs[0], sims if sim_list is None else sim_list[0], form)  # type: ignore[arg-type]
     was_enabled = gc.isenabled()
     gc.disable()  # a batch makes many small objects and no reference cycles: full collections would only cost
     try:
@@ -896,21 +898,37 @@ def _run(programs: Sequence[Any], sims: Simulation | Sequence[Simulation], sim_l
                 g[1].append(r)
     values = {g_id: batch.evaluate(s, roots) if roots else {} for g_id, (s, roots) in groups.items()}
 
-    codes: list[int] = [0] * n
-    answers: list[Any] = [None] * n
     invalid = INVALID
-    single = values[0] if sim_list is None else None
-    for i, r in enumerate(read):
-        if r >= 0:
-            value = single[r] if single is not None else values[group_of[i]][r]
-            if value is invalid:
-                codes[i] = INVALID_ANSWER
-            else:
-                codes[i] = ANSWER
-                answers[i] = value
-        else:
-            codes[i] = SYNTAX_ERROR if r == _SYNTAX else TYPE_ERROR
+    if sim_list is None:
+        slots = values[0]
+        results = [slots[r] if r >= 0 else invalid for r in read]
+    else:
+        results = [values[g][r] if r >= 0 else invalid for g, r in zip(group_of, read)]
+    codes = [(INVALID_ANSWER if v is invalid else ANSWER) if r >= 0 else SYNTAX_ERROR if r == _SYNTAX else TYPE_ERROR
+             for r, v in zip(read, results)]
+    answers = [None if v is invalid else v for v in results]
     return BatchResult(np.array(codes, dtype=np.int8), answers)
+
+
+def _one(program: Any, sim: Simulation, form: ProgramForm | None) -> BatchResult:
+    """A batch of one program: :func:`~craft_dsl.oracle.program_outcome`'s reading and run, without explaining
+    an INVALID value."""
+    try:
+        outcome, checked = check_outcome(program, form)
+    except ProgramError:  # pragma: no cover - check_outcome turns these into outcomes
+        raise
+    except CraftError as err:
+        raise CraftError(f"run_batch: program 0: {err}") from err
+    if outcome is not None:
+        return BatchResult(np.array([OUTCOMES.index(outcome.kind)], dtype=np.int8), [None])
+    assert checked is not None
+    try:
+        value = checked.run(sim)
+    except (CounterfactualUnavailable, EvaluationError):
+        value = INVALID
+    if value is INVALID:
+        return BatchResult(np.array([INVALID_ANSWER], dtype=np.int8), [None])
+    return BatchResult(np.array([ANSWER], dtype=np.int8), [value])
 
 
 def _alone(batch: _Batch, program: Any, form: ProgramForm | None, i: int) -> int:
