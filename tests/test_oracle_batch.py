@@ -11,6 +11,7 @@ from __future__ import annotations
 import gc
 import random
 import re
+import tracemalloc
 from collections.abc import Sequence
 from typing import Any
 
@@ -307,3 +308,29 @@ def test_results_do_not_depend_on_the_batch(sims: list[Simulation]) -> None:
     shuffled = batched(run_batch([batch[i] for i in order], sim, form="prefix"))
     assert shuffled == [first[i] for i in order]
     assert [batched(run_batch([p], sim, form="prefix"))[0] for p in batch[:40]] == first[:40]
+
+
+def test_nothing_outlives_a_batch(sims: list[Simulation]) -> None:
+    """The node table, memos and node values go with the call (the module keeps only its tables of token kinds
+    and of type combinations no overload accepts, which stop growing), and a batch's peak memory grows with
+    the batch."""
+    from craft_dsl.oracle import batch as batch_module
+
+    rng = random.Random(5)
+    sim = sims[1]
+    golds = [p.to_tokens() for _t, _p, p, _a in first_instances(sim, include_dropped=True)]
+    batch = [token_edits(rng.choice(golds), rng) for _ in range(3000)]
+    run_batch(batch, sim, form="prefix")
+    tables = (len(batch_module._NO_OVERLOAD), len(batch_module._INPUT_TYPES))
+    tracemalloc.start()
+    try:
+        run_batch(batch, sim, form="prefix")
+        _now, big = tracemalloc.get_traced_memory()
+        tracemalloc.reset_peak()
+        run_batch(batch[:1000], sim, form="prefix")
+        _now, small = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert small < big * 0.6, (small, big)
+    assert (len(batch_module._NO_OVERLOAD), len(batch_module._INPUT_TYPES)) == tables
+    assert not [o for o in gc.get_objects() if isinstance(o, batch_module._Batch)]
