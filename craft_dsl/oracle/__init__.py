@@ -18,9 +18,9 @@ from .predictions import MISSING, Prediction, collect_predictions, read_predicti
 from .traces import Divergence, TraceComparison, TraceError, compare_trace, values_agree
 
 __all__ = [
-    "BatchResult", "run_batch",
-    "FORMS", "MISSING", "OUTCOMES", "Divergence", "EvaluationReport", "Metrics", "Prediction", "ProgramCache",
-    "ProgramForm", "ProgramOutcome", "QuestionResult", "TraceComparison", "TraceError", "check_outcome",
-    "collect_predictions", "compare_trace", "detect_form", "evaluate_predictions", "explain_invalid",
-    "program_outcome", "read_predictions", "read_program", "run_outcome", "score_distribution", "values_agree",
+    "FORMS", "MISSING", "OUTCOMES", "BatchResult", "Divergence", "EvaluationReport", "Metrics", "Prediction",
+    "ProgramCache", "ProgramForm", "ProgramOutcome", "QuestionResult", "TraceComparison", "TraceError",
+    "check_outcome", "collect_predictions", "compare_trace", "detect_form", "evaluate_predictions", "explain_invalid",
+    "program_outcome", "read_predictions", "read_program", "run_batch", "run_outcome", "score_distribution",
+    "values_agree",
 ]
