@@ -356,7 +356,9 @@ class _Batch:
             if n == 1:
                 if not stack:
                     return _SYNTAX
-                by_arg = self.unary.setdefault(word, {})
+                by_arg = self.unary.get(word)
+                if by_arg is None:
+                    by_arg = self.unary[word] = {}
                 top = stack[-1]
                 item = by_arg.get(top)
                 if item is None:
