@@ -21,6 +21,7 @@ from typing import Any
 
 from ..errors import CraftError, ReaderError
 from ..files import read_json, read_text
+from ..oracle.outcome import explain_invalid
 from ..perception.distribution import answer_distributions
 from ..perception.schema import PerceivedScene
 from ..perception.world import SceneModel
@@ -50,13 +51,16 @@ class Question:
 @dataclass(frozen=True)
 class Answer:
     """The reader's answer to one question, as ``dataset_minimal.json`` writes answers (``"True"``, ``"2"``,
-    ``"Red"``), with the probability of that answer when a distribution was computed, or the reason there is none."""
+    ``"Red"``), with the probability of that answer when a distribution was computed, or the reason there is none.
+    ``fallback``: the answer is a guess of the program's answer type (:func:`fallback_answer`), not read from the
+    video; ``error`` says why."""
 
     question: Question
     answer: str | None
     probability: float | None = None
     program: str | None = None
     error: str | None = None
+    fallback: bool = False
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"video_index": self.question.video_index,
@@ -67,6 +71,8 @@ class Answer:
             out["program"] = self.program
         if self.error is not None:
             out["error"] = self.error
+        if self.fallback:
+            out["fallback"] = True
         return out
 
 
@@ -292,15 +298,18 @@ def answer_questions(scene: PerceivedScene, questions: Sequence[Question], distr
         try:
             value = program.run(sim)
         except CraftError as err:
-            out.append(Answer(q, fallback_answer(program), program=str(program), error=f"cannot be answered: {err}"))
+            out.append(Answer(q, fallback_answer(program), program=str(program), error=f"cannot be answered: {err}",
+                              fallback=True))
             continue
         answer = format_answer(value)
         if answer is None:  # the objects it names are not in the most likely world: weigh every reading
             d = answer_distributions(model, [program], samples=samples, seed=seed)[0]
             answer = format_answer(d.mode)
             if answer is None:
+                where, why = explain_invalid(program, sim)
                 out.append(Answer(q, fallback_answer(program), None, str(program),
-                                  "INVALID in every reading: the objects it names are not in the perceived scene"))
+                                  f"INVALID in every reading: {why}" + (f" (at {where})" if where else ""),
+                                  fallback=True))
                 continue
             out.append(Answer(q, answer, d.p(d.mode), str(program)))
             continue

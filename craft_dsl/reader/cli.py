@@ -151,9 +151,11 @@ def cmd_read(args: argparse.Namespace) -> int:
                 tmp.write_text("".join(json.dumps(d) + "\n" for d in details), encoding="utf-8")
         journal.remove()
     unanswered = sum(1 for v in predictions.values() if v is None)
+    guessed = sum(1 for d in details if d.get("fallback"))
     if not args.quiet:
         mean = sum(perception_s) / len(perception_s) if perception_s else 0.0
-        print(f"wrote {args.out}: {len(predictions)} answers ({unanswered} unanswered) from {len(perception_s)} "
+        print(f"wrote {args.out}: {len(predictions)} answers ({unanswered} unanswered, {guessed} guessed: "
+              f"'fallback' in --details) from {len(perception_s)} "
               f"videos; perception {mean:.2f} s per video"
               + (f"; {len(failed)} videos failed (errors above)" if failed else ""), file=sys.stderr)
     return 2 if failed else 0
@@ -181,8 +183,8 @@ def add_commands(sub: Any) -> None:
     add_workers_option(p, "worker processes (one video at a time each); the output is identical for any number")
     p.add_argument("--perceived", help="also write each video's PerceivedScene JSON (<id6>.json) into this folder "
                                        "(default: none)")
-    p.add_argument("--details", help="also write one JSON line per question (answer, probability, program, error) "
-                                     "to this file (default: none)")
+    p.add_argument("--details", help="also write one JSON line per question (answer, probability, program, error, "
+                                     "fallback: the answer is a guess) to this file (default: none)")
     p.add_argument("--distribution", action="store_true",
                    help="answer with the mode of each question's answer distribution and give its probability")
     p.add_argument("--samples", type=int, default=64, help="Monte Carlo readings of an answer distribution")
