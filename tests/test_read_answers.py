@@ -2,9 +2,16 @@
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
+import pytest
+
+from craft_dsl.cli import main
 from craft_dsl.perception import export_perceived
 from craft_dsl.physics import simulate
 from craft_dsl.reader.answer import Question, answer_questions
+from craft_dsl.reader.video import MPEG_END_CODE, decode, incomplete
 
 
 def test_a_guess_is_flagged_with_the_node_that_made_the_question_unanswerable() -> None:
@@ -24,3 +31,33 @@ def test_a_guess_is_flagged_with_the_node_that_made_the_question_unanswerable() 
     assert record["error"].startswith("INVALID in every reading: Unique: the set holds 0 objects")
     assert '"purple"' in record["error"]  # the node is named: which object the question asked about
     assert not read.fallback and "fallback" not in read.to_json() and read.answer is not None
+
+
+def test_a_cut_mpeg_stream_is_told_apart_from_a_whole_one(users_dataset: Path, tmp_path: Path) -> None:
+    whole = sorted((users_dataset / "videos").rglob("*.mpg"))[0]
+    assert whole.read_bytes().endswith(MPEG_END_CODE)
+    assert incomplete(whole, len(decode(whole))) is None
+    cut = tmp_path / whole.name
+    cut.write_bytes(whole.read_bytes()[: whole.stat().st_size * 2 // 3])
+    why = incomplete(cut, len(decode(cut)))
+    assert why is not None and "cut short" in why
+
+
+def test_read_warns_of_a_cut_video_and_flags_its_answers(users_dataset: Path, tmp_path: Path,
+                                                        capsys: pytest.CaptureFixture[str]) -> None:
+    records = json.loads((users_dataset / "dataset_minimal.json").read_text())
+    video = records[0]["video_index"]
+    source = next((users_dataset / "videos").rglob(f"{video:06d}.mpg"))
+    folder = tmp_path / "videos"
+    folder.mkdir()
+    (folder / source.name).write_bytes(source.read_bytes()[: source.stat().st_size * 2 // 3])
+    questions = tmp_path / "questions.json"
+    questions.write_text(json.dumps([{k: r[k] for k in ("video_index", "question_index", "question")}
+                                     for r in records if r["video_index"] == video]))
+    details = tmp_path / "details.jsonl"
+    assert main(["read", "--videos", str(folder), "--questions", str(questions), "--out", str(tmp_path / "p.json"),
+                 "--details", str(details), "--workers", "1"]) == 0
+    err = capsys.readouterr().err
+    assert f"warning: video {video} (" in err and "the video is not whole" in err and "1 videos not whole" in err
+    lines = [json.loads(line) for line in details.read_text().splitlines()]
+    assert lines and all("cut short" in d["warning"] for d in lines)

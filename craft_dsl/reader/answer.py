@@ -53,7 +53,8 @@ class Answer:
     """The reader's answer to one question, as ``dataset_minimal.json`` writes answers (``"True"``, ``"2"``,
     ``"Red"``), with the probability of that answer when a distribution was computed, or the reason there is none.
     ``fallback``: the answer is a guess of the program's answer type (:func:`fallback_answer`), not read from the
-    video; ``error`` says why."""
+    video; ``error`` says why. ``warning``: why the video it was read from is not whole (its answers may be
+    wrong)."""
 
     question: Question
     answer: str | None
@@ -61,6 +62,7 @@ class Answer:
     program: str | None = None
     error: str | None = None
     fallback: bool = False
+    warning: str | None = None
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"video_index": self.question.video_index,
@@ -73,6 +75,8 @@ class Answer:
             out["error"] = self.error
         if self.fallback:
             out["fallback"] = True
+        if self.warning is not None:
+            out["warning"] = self.warning
         return out
 
 

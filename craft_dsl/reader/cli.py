@@ -15,6 +15,7 @@ import json
 import sys
 import time
 from collections import defaultdict
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -32,6 +33,7 @@ def read_video(path: str, questions: list[Question], decoder: str = "auto", dist
     """Perceive one video and answer its questions (the unit of work of ``--workers``)."""
     from .answer import answer_questions
     from .perceive import perceive_video
+    from .video import incomplete
 
     t = time.perf_counter()
     try:
@@ -41,8 +43,16 @@ def read_video(path: str, questions: list[Question], decoder: str = "auto", dist
     except CraftError as err:
         return {"path": path, "error": str(err)}
     done = time.perf_counter()
-    return {"path": path, "answers": answers, "scene": perception.scene.dumps(),
-            "timings": {**perception.timings, "perception": perceived - t, "answering": done - perceived}}
+    why = incomplete(path, perception.scene.video.frames)
+    warning = None if why is None else f"the video is not whole: {why}"
+    if warning is not None:  # read all the same, and every answer says so
+        answers = [replace(a, warning=warning) for a in answers]
+    result: dict[str, Any] = {"path": path, "answers": answers, "scene": perception.scene.dumps(),
+                              "timings": {**perception.timings, "perception": perceived - t,
+                                          "answering": done - perceived}}
+    if warning is not None:
+        result["warning"] = warning
+    return result
 
 
 def _check_outputs(args: argparse.Namespace) -> None:
@@ -111,6 +121,8 @@ def cmd_read(args: argparse.Namespace) -> int:
                 failed[index] = result["error"]
                 report(f"error: {result['error']}")
             else:
+                if "warning" in result:
+                    report(f"warning: video {index} ({result['path']}): {result['warning']}")
                 answers: list[Answer] = result["answers"]
                 record: dict[str, Any] = {"video": index, "path": result["path"],
                                           "details": [a.to_json() for a in answers],
@@ -152,11 +164,13 @@ def cmd_read(args: argparse.Namespace) -> int:
         journal.remove()
     unanswered = sum(1 for v in predictions.values() if v is None)
     guessed = sum(1 for d in details if d.get("fallback"))
+    partial = len({d["video_index"] for d in details if d.get("warning")})
     if not args.quiet:
         mean = sum(perception_s) / len(perception_s) if perception_s else 0.0
         print(f"wrote {args.out}: {len(predictions)} answers ({unanswered} unanswered, {guessed} guessed: "
               f"'fallback' in --details) from {len(perception_s)} "
               f"videos; perception {mean:.2f} s per video"
+              + (f"; {partial} videos not whole (their answers carry a 'warning')" if partial else "")
               + (f"; {len(failed)} videos failed (errors above)" if failed else ""), file=sys.stderr)
     return 2 if failed else 0
 

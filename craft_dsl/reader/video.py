@@ -108,3 +108,36 @@ def decode(path: str | os.PathLike[str], decoder: Decoder = "auto") -> np.ndarra
     if frames.shape[1] != frames.shape[2]:
         raise ReaderError(f"{target}: frames are {frames.shape[2]}x{frames.shape[1]}; CRAFT videos are square")
     return frames
+
+
+#: The MPEG sequence end code, the last four bytes of a whole MPEG-1 elementary stream (``.mpg``, as craft_dsl and
+#: the original CRAFT renderer write them).
+MPEG_END_CODE = b"\x00\x00\x01\xb7"
+_MPEG_SEQUENCE_HEADER = b"\x00\x00\x01\xb3"
+
+
+def incomplete(path: str | os.PathLike[str], frames: int) -> str | None:
+    """Why the video file at ``path``, of which ``frames`` frames were decoded, is not whole (None when nothing says
+    so): an MPEG-1 elementary stream that ends without its end code was cut short; a container that states its
+    frame count and holds fewer decodable frames lost some."""
+    target = Path(path)
+    with target.open("rb") as f:
+        head = f.read(4)
+        f.seek(max(target.stat().st_size - 4, 0))
+        tail = f.read(4)
+    if head == _MPEG_SEQUENCE_HEADER:
+        if tail != MPEG_END_CODE:
+            return f"the MPEG stream ends without its end code: the file was cut short ({frames} frames decoded)"
+        return None
+    if not have_pyav():
+        return None
+    import av
+
+    try:
+        with av.open(str(target)) as container:
+            stated = int(container.streams.video[0].frames or 0)
+    except Exception:  # noqa: BLE001 - decoding already succeeded; a container that cannot say is not evidence
+        return None
+    if stated and frames < stated:
+        return f"{frames} of the {stated} frames its container states could be decoded"
+    return None
