@@ -20,7 +20,7 @@ import numpy as np
 
 from ..perception.export import export_perceived
 from ..perception.schema import PerceivedScene
-from ..render.raster import static_layer
+from ..render.raster import DEFAULT_SIZE, static_layer
 from ..world import WorldSpec
 from .detect import blobs, grid_labels, grid_rims
 from .layout import StaticFit, fit_layout
@@ -136,6 +136,6 @@ def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scen
     """Perceive a video file (see the module docstring and :func:`perceive_frames`)."""
     timings: dict[str, float] = {}
     t = time.perf_counter()
-    frames = decode(path, decoder)
+    frames = decode(path, decoder, size=DEFAULT_SIZE)  # a video of another size is read at the reader's size
     timings["decode"] = time.perf_counter() - t
     return perceive_frames(frames, scene, timings, engines)

@@ -40,7 +40,7 @@ def _check_file(path: Path) -> None:
         raise ReaderError(f"{path}: the video file is empty")
 
 
-def _decode_pyav(path: Path) -> np.ndarray:
+def _decode_pyav(path: Path, size: int | None = None) -> np.ndarray:
     import av
 
     try:
@@ -51,7 +51,13 @@ def _decode_pyav(path: Path) -> np.ndarray:
     try:
         stream = container.streams.video[0]
         stream.thread_type = "NONE"
-        frames = [f.to_ndarray(format="rgb24") for f in container.decode(stream)]
+        _check_square(path, stream.width, stream.height)
+        scale: dict[str, object] = {}
+        if size is not None and (stream.width, stream.height) != (size, size):
+            scale = {"width": size, "height": size, "interpolation": "AREA" if stream.width > size else "BILINEAR"}
+        frames = [f.to_ndarray(format="rgb24", **scale) for f in container.decode(stream)]
+    except ReaderError:
+        raise
     except Exception as err:  # noqa: BLE001
         raise ReaderError(f"{path}: cannot be decoded ({err})") from None
     finally:
@@ -72,13 +78,18 @@ def _probe_size(path: Path, exe: str) -> tuple[int, int]:
     return int(match.group(1)), int(match.group(2))
 
 
-def _decode_ffmpeg(path: Path) -> np.ndarray:
+def _decode_ffmpeg(path: Path, size: int | None = None) -> np.ndarray:
     import imageio_ffmpeg
 
     exe = imageio_ffmpeg.get_ffmpeg_exe()
     width, height = _probe_size(path, exe)
+    _check_square(path, width, height)
     fmt = ["-f", "mpegvideo"] if path.suffix.lower() == ".mpg" else []
-    cmd = [exe, "-loglevel", "error", "-threads", "1", *fmt, "-i", str(path), "-f", "rawvideo", "-pix_fmt",
+    scale: list[str] = []
+    if size is not None and (width, height) != (size, size):
+        scale = ["-vf", f"scale={size}:{size}:flags={'area' if width > size else 'bilinear'}"]
+        width = height = size
+    cmd = [exe, "-loglevel", "error", "-threads", "1", *fmt, "-i", str(path), *scale, "-f", "rawvideo", "-pix_fmt",
            "rgb24", "-"]
     proc = subprocess.run(cmd, capture_output=True, check=False)
     if proc.returncode != 0:
@@ -91,9 +102,15 @@ def _decode_ffmpeg(path: Path) -> np.ndarray:
     return data.reshape(-1, height, width, 3)
 
 
-def decode(path: str | os.PathLike[str], decoder: Decoder = "auto") -> np.ndarray:
+def _check_square(path: Path, width: int, height: int) -> None:
+    if width != height:
+        raise ReaderError(f"{path}: frames are {width}x{height}; CRAFT videos are square")
+
+
+def decode(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | None = None) -> np.ndarray:
     """RGB frames of a video, uint8 [T, H, W, 3]; ``decoder``: ``auto`` (PyAV if installed), ``pyav``,
-    ``ffmpeg`` (imageio-ffmpeg)."""
+    ``ffmpeg`` (imageio-ffmpeg). ``size``: frames of another size are rescaled to ``size`` x ``size`` as they are
+    decoded (area averaging when shrinking, bilinear when enlarging). Frames that are not square are refused."""
     target = Path(path)
     _check_file(target)
     if decoder not in DECODERS:
@@ -102,11 +119,9 @@ def decode(path: str | os.PathLike[str], decoder: Decoder = "auto") -> np.ndarra
         if not have_pyav():
             raise ReaderError("the pyav decoder needs PyAV, a dependency of craft-dsl that is missing here: "
                               "pip install 'av>=12'")
-        frames = _decode_pyav(target)
+        frames = _decode_pyav(target, size)
     else:
-        frames = _decode_ffmpeg(target)
-    if frames.shape[1] != frames.shape[2]:
-        raise ReaderError(f"{target}: frames are {frames.shape[2]}x{frames.shape[1]}; CRAFT videos are square")
+        frames = _decode_ffmpeg(target, size)
     return frames
 
 
