@@ -61,3 +61,20 @@ def test_read_warns_of_a_cut_video_and_flags_its_answers(users_dataset: Path, tm
     assert f"warning: video {video} (" in err and "the video is not whole" in err and "1 videos not whole" in err
     lines = [json.loads(line) for line in details.read_text().splitlines()]
     assert lines and all("cut short" in d["warning"] for d in lines)
+
+
+def test_a_body_read_in_two_colours_keeps_the_colour_seen_over_more_pixels() -> None:
+    from craft_dsl.reader.detect import Blob
+    from craft_dsl.reader.track import TrackedObject, merge_colour_splits
+    from craft_dsl.vocabulary import COLORS
+
+    red, brown = COLORS.index("red"), COLORS.index("brown")
+
+    def blob(k: int, color: int, area: float) -> Blob:
+        return Blob(k, color, area, 100.0, 100.0, False)
+
+    # a large red body, read brown in two frames of three (over a grey basket, say) but over few pixels
+    reds = TrackedObject(red, [blob(k, red, 300.0) if k % 3 == 0 else None for k in range(60)])
+    browns = TrackedObject(brown, [blob(k, brown, 20.0) if k % 3 else None for k in range(60)])
+    merged = merge_colour_splits([browns, reds])
+    assert len(merged) == 1 and merged[0].color_name == "red" and len(merged[0].seen()) == 60

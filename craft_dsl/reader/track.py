@@ -193,9 +193,15 @@ def same_body(a: TrackedObject, b: TrackedObject) -> bool:
     return checked >= 3 and near >= 0.8 * checked
 
 
+def _evidence(obj: TrackedObject) -> float:
+    """Pixels a track was seen with, over all its frames."""
+    return sum(b.area for b in obj.blobs if b is not None)
+
+
 def merge_colour_splits(objects: list[TrackedObject]) -> list[TrackedObject]:
     """Join the tracks of a body read in two colours (:func:`same_body`); the chromatic colour wins over gray, else
-    the colour seen in more frames."""
+    the colour seen over more pixels in all (a large red cube in a grey basket reads brown there, in many frames but
+    over few pixels)."""
     out = list(objects)
     merged = True
     while merged:
@@ -204,7 +210,7 @@ def merge_colour_splits(objects: list[TrackedObject]) -> list[TrackedObject]:
             for b in out[i + 1:]:
                 if a.color == b.color or not same_body(a, b):
                     continue
-                keep, drop = (a, b) if (b.color == GRAY or (a.color != GRAY and len(a.seen()) >= len(b.seen()))) \
+                keep, drop = (a, b) if (b.color == GRAY or (a.color != GRAY and _evidence(a) >= _evidence(b))) \
                     else (b, a)
                 blobs = [kb if kb is not None else db for kb, db in zip(keep.blobs, drop.blobs)]
                 out = [o for o in out if o is not a and o is not b] + [TrackedObject(keep.color, blobs)]
