@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import subprocess
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
@@ -52,7 +52,7 @@ def _decode_pyav(path: Path, size: int | None = None) -> np.ndarray:
         stream = container.streams.video[0]
         stream.thread_type = "NONE"
         _check_square(path, stream.width, stream.height)
-        scale: dict[str, object] = {}
+        scale: dict[str, Any] = {}
         if size is not None and (stream.width, stream.height) != (size, size):
             scale = {"width": size, "height": size, "interpolation": "AREA" if stream.width > size else "BILINEAR"}
         frames = [f.to_ndarray(format="rgb24", **scale) for f in container.decode(stream)]
