@@ -8,9 +8,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import signal
-import sys
-import threading
 from typing import Any
 
 
@@ -48,31 +45,4 @@ def add_workers_option(parser: argparse.ArgumentParser, what: str) -> None:
                         help=f"{what} (default: the usable CPU cores, {n} here)")
 
 
-
-
-def die_with_parent(parent: int) -> None:
-    """Make this worker process end when ``parent`` does: at once on Linux (``PR_SET_PDEATHSIG``), elsewhere
-    within a second (a thread watching the parent's pid). Call it first thing in the worker."""
-    if sys.platform.startswith("linux"):
-        try:
-            import ctypes
-
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
-        except (OSError, AttributeError):
-            pass
-
-    def watch() -> None:
-        import time
-
-        while True:
-            if os.getppid() != parent:
-                os._exit(1)
-            time.sleep(1.0)
-
-    if os.getppid() != parent:
-        os._exit(1)
-    threading.Thread(target=watch, daemon=True).start()
-
-
-__all__ = ["add_workers_option", "die_with_parent", "usable_cpu_count"]
+__all__ = ["add_workers_option", "usable_cpu_count"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -367,7 +368,7 @@ def test_media_in_a_thread_or_inline_are_the_same_bytes() -> None:
 def test_local_workers_use_a_media_thread_only_with_a_spare_core(monkeypatch: pytest.MonkeyPatch) -> None:
     from craft_dsl.dataset import executors
 
-    monkeypatch.setattr(executors.os, "cpu_count", lambda: 2)
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
     assert executors.LocalExecutor(1).spare_cores
     assert not executors.LocalExecutor(2).spare_cores
     assert not executors.LocalExecutor(3).spare_cores

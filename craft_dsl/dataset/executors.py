@@ -15,24 +15,18 @@ few tasks per worker are queued at any time, so an interruption drops little wor
 
 from __future__ import annotations
 
-import multiprocessing
-import os
-import signal
-import threading
 from collections import deque
 from collections.abc import Callable, Iterable
-from multiprocessing.connection import Connection, wait
 from typing import Any, Protocol
 
 from ..errors import CraftError, MissingExtraError
-from ..parallel import die_with_parent, usable_cpu_count
+from ..parallel import usable_cpu_count
+from ..pool import QUEUED_PER_WORKER, describe, run_pool
 from .instance import InstanceResult, InstanceTask, run_instance
 
 OnResult = Callable[[InstanceResult], None]
 #: (instance id, error message) of a task that raised.
 Failure = tuple[int, str]
-#: Tasks queued per worker beyond the one it runs.
-QUEUED_PER_WORKER = 1
 
 
 class Executor(Protocol):
@@ -47,47 +41,10 @@ class Executor(Protocol):
 
 
 def _failure(task_id: int, err: BaseException) -> Failure:
-    return (task_id, f"{type(err).__name__}: {err}")
+    return (task_id, describe(err))
 
 
 # -- local ------------------------------------------------------------------------------------------------------
-
-
-def _worker_main(conn: Connection, parent: int) -> None:
-    """A local worker: run the tasks received on ``conn`` until it closes."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    die_with_parent(parent)
-    while True:
-        try:
-            task = conn.recv()
-        except (EOFError, OSError):
-            return
-        if task is None:
-            return
-        try:
-            message: tuple[Any, ...] = ("ok", run_instance(task))
-        except Exception as err:  # noqa: BLE001 - reported to the main process, which goes on with the others
-            message = ("error", *_failure(task.instance_id, err))
-        try:
-            conn.send(message)
-        except (EOFError, OSError):
-            return
-
-
-class _Worker:
-    def __init__(self, ctx: Any) -> None:
-        self.conn, child = ctx.Pipe()
-        self.process = ctx.Process(target=_worker_main, args=(child, os.getpid()), daemon=True,
-                                   name="craft-dsl generate worker")
-        self.process.start()
-        child.close()
-        self.queued: deque[InstanceTask] = deque()
-
-    def stop(self) -> None:
-        if self.process.is_alive():
-            self.process.kill()
-        self.process.join(timeout=5)
-        self.conn.close()
 
 
 class LocalExecutor:
@@ -121,56 +78,12 @@ class LocalExecutor:
             return failures
         return self._run_pool(todo, on_result)
 
-    def _start(self, ctx: Any, n: int) -> list[_Worker]:
-        # started with Ctrl-C ignored, which the spawned interpreters inherit: a Ctrl-C at any moment (even while
-        # they import) reaches only the main process, which stops them without a traceback from any of them
-        main = threading.current_thread() is threading.main_thread()
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
-        try:
-            return [_Worker(ctx) for _ in range(n)]
-        finally:
-            if main:
-                signal.signal(signal.SIGINT, previous)
-
     def _run_pool(self, todo: deque[InstanceTask], on_result: OnResult) -> list[Failure]:
-        ctx = multiprocessing.get_context("spawn")
         failures: list[Failure] = []
-        workers = self._start(ctx, min(self.workers, len(todo)))
-        try:
-            for w in workers:
-                self._feed(w, todo)
-            while any(w.queued for w in workers):
-                by_conn = {w.conn: w for w in workers if w.queued}
-                for conn in wait(list(by_conn), timeout=1.0):
-                    w = by_conn[conn]
-                    try:
-                        message = w.conn.recv()
-                    except (EOFError, OSError):
-                        lost = w.queued.popleft()
-                        failures.append((lost.instance_id, f"worker process died (exit code {w.process.exitcode})"))
-                        todo.extendleft(reversed(w.queued))
-                        w.queued.clear()
-                        w.stop()
-                        workers[workers.index(w)] = replacement = self._start(ctx, 1)[0]
-                        self._feed(replacement, todo)
-                        continue
-                    w.queued.popleft()
-                    if message[0] == "ok":
-                        on_result(message[1])
-                    else:
-                        failures.append((message[1], message[2]))
-                    self._feed(w, todo)
-        finally:
-            for w in workers:
-                w.stop()
+        run_pool(run_instance, [(task.instance_id, (task,)) for task in todo], self.workers,
+                 lambda _key, result: on_result(result), lambda key, message: failures.append((key, message)),
+                 name="craft-dsl generate worker")
         return sorted(failures)
-
-    @staticmethod
-    def _feed(w: _Worker, todo: deque[InstanceTask]) -> None:
-        while todo and len(w.queued) <= QUEUED_PER_WORKER:
-            task = todo.popleft()
-            w.conn.send(task)
-            w.queued.append(task)
 
 
 # -- Dask -------------------------------------------------------------------------------------------------------

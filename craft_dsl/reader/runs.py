@@ -12,33 +12,26 @@ from __future__ import annotations
 
 import hashlib
 import json
-import multiprocessing
 import os
 import signal
 import sys
 import threading
-from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from multiprocessing.connection import Connection, wait
 from pathlib import Path
 from types import FrameType, TracebackType
 from typing import IO, Any
 
 from ..errors import ReaderError
+from ..pool import Task, describe, run_pool
 
 #: What the journal's name adds to ``--out``'s.
 JOURNAL_SUFFIX = ".partial.jsonl"
 JOURNAL_KIND = "craft-dsl read"
 JOURNAL_VERSION = 1
-#: Tasks queued per worker process beyond the one it runs.
-QUEUED_PER_WORKER = 1
 #: Packages that call Python from C (pymunk through cffi, Box2D through SWIG): an exception raised in such a
 #: callback is printed and swallowed there, so Ctrl-C is not raised while one runs (:func:`ctrl_c_outside_callbacks`).
 CALLBACK_PACKAGES = ("pymunk", "Box2D")
-
-#: One unit of work: a key (a video index) and the arguments of the function run on it.
-Task = tuple[int, tuple[Any, ...]]
 
 
 def journal_path(out: str | os.PathLike[str]) -> Path:
@@ -215,11 +208,6 @@ def _sync(fh: IO[bytes]) -> None:
 # -- running the videos ------------------------------------------------------------------------------------------
 
 
-def describe(err: BaseException) -> str:
-    """``ExceptionType: message``."""
-    return f"{type(err).__name__}: {err}"
-
-
 def _in_callback(frame: FrameType | None) -> bool:
     """Whether Python code is running inside a call from one of :data:`CALLBACK_PACKAGES` (its frames are on the
     stack)."""
@@ -287,100 +275,7 @@ def run_tasks(fn: Callable[..., Any], tasks: Sequence[Task], workers: int, on_re
                     continue
                 on_result(key, value)
         return
-    _run_pool(fn, deque(tasks), min(workers, len(tasks)), on_result, on_failure)
-
-
-def _worker_main(conn: Connection, parent: int, fn: Callable[..., Any]) -> None:
-    """A worker process: run the tasks received on ``conn`` until it closes."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    from ..parallel import die_with_parent
-
-    die_with_parent(parent)
-    while True:
-        try:
-            task = conn.recv()
-        except (EOFError, OSError):
-            return
-        if task is None:
-            return
-        key, args = task
-        try:
-            message: tuple[Any, ...] = ("ok", key, fn(*args))
-        except Exception as err:  # noqa: BLE001 - reported to the main process, which goes on with the others
-            message = ("error", key, describe(err))
-        try:
-            conn.send(message)
-        except (EOFError, OSError):
-            return
-        except Exception as err:  # noqa: BLE001 - a result that cannot be sent (pickled)
-            conn.send(("error", key, describe(err)))
-
-
-class _Worker:
-    def __init__(self, ctx: Any, fn: Callable[..., Any]) -> None:
-        self.conn, child = ctx.Pipe()
-        self.process = ctx.Process(target=_worker_main, args=(child, os.getpid(), fn), daemon=True,
-                                   name="craft-dsl read worker")
-        self.process.start()
-        child.close()
-        self.queued: deque[Task] = deque()
-
-    def feed(self, todo: deque[Task]) -> None:
-        while todo and len(self.queued) <= QUEUED_PER_WORKER:
-            task = todo.popleft()
-            self.conn.send(task)
-            self.queued.append(task)
-
-    def stop(self) -> None:
-        if self.process.is_alive():
-            self.process.kill()
-        self.process.join(timeout=5)
-        self.conn.close()
-
-
-def _start(ctx: Any, fn: Callable[..., Any], n: int) -> list[_Worker]:
-    # started with Ctrl-C ignored, which the spawned interpreters inherit: a Ctrl-C at any moment (even while they
-    # import) reaches only this process, which stops them, and none of them prints a traceback
-    main = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if main else None
-    try:
-        return [_Worker(ctx, fn) for _ in range(n)]
-    finally:
-        if main:
-            signal.signal(signal.SIGINT, previous)
-
-
-def _run_pool(fn: Callable[..., Any], todo: deque[Task], n: int, on_result: Callable[[int, Any], None],
-              on_failure: Callable[[int, str], None]) -> None:
-    ctx = multiprocessing.get_context("spawn")
-    workers = _start(ctx, fn, n)
-    try:
-        for w in workers:
-            w.feed(todo)
-        while any(w.queued for w in workers):
-            by_conn = {w.conn: w for w in workers if w.queued}
-            for conn in wait(list(by_conn), timeout=1.0):
-                w = by_conn[conn]
-                try:
-                    message = w.conn.recv()
-                except (EOFError, OSError):
-                    lost = w.queued.popleft()
-                    todo.extendleft(reversed(w.queued))
-                    w.queued.clear()
-                    w.stop()
-                    on_failure(lost[0], f"the worker process died (exit code {w.process.exitcode})")
-                    workers[workers.index(w)] = replacement = _start(ctx, fn, 1)[0]
-                    replacement.feed(todo)
-                    continue
-                w.queued.popleft()
-                if message[0] == "ok":
-                    on_result(message[1], message[2])
-                else:
-                    on_failure(message[1], message[2])
-                w.feed(todo)
-    finally:
-        for w in workers:
-            w.stop()
+    run_pool(fn, tasks, workers, on_result, on_failure, name="craft-dsl read worker")
 
 
 __all__ = ["JOURNAL_SUFFIX", "Journal", "ctrl_c_outside_callbacks", "journal_path", "run_header", "run_tasks",
