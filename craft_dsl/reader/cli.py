@@ -43,15 +43,13 @@ def read_video(path: str, questions: list[Question], decoder: str = "auto", dist
     except CraftError as err:
         return {"path": path, "error": str(err)}
     done = time.perf_counter()
-    why = incomplete(path, perception.scene.video.frames)
-    warning = None if why is None else f"the video is not whole: {why}"
-    if warning is not None:  # read all the same, and every answer says so
-        answers = [replace(a, warning=warning) for a in answers]
     result: dict[str, Any] = {"path": path, "answers": answers, "scene": perception.scene.dumps(),
                               "timings": {**perception.timings, "perception": perceived - t,
                                           "answering": done - perceived}}
-    if warning is not None:
-        result["warning"] = warning
+    why = incomplete(path, perception.scene.video.frames)
+    if why is not None:  # read all the same, and every answer says so
+        result["warning"] = f"the video is not whole: {why}"
+        result["answers"] = [replace(a, warning=result["warning"]) for a in answers]
     return result
 
 

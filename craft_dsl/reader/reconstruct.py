@@ -100,8 +100,7 @@ class Reconstruction:
     fit_frames: int = 0
     refits: int = 0
     anchors: int = 0  # restarts of straying bodies from the video
-    free_run_px: float = 0.0  # mean distance (pixels, capped) of the run from the fitted start, before restarts
-    final_px: float = 0.0  # the same for the run kept
+    final_px: float = 0.0  # mean distance (pixels, capped as in the score) of the kept run from the tracks
     tried: tuple[str, ...] = ()  # the engines reconstructed with (reconstruct_best), the kept one among them
 
 
@@ -638,7 +637,7 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
         if not progressed:
             break
     return Reconstruction(sim, fit.values(best.units, best.choice), list(slots), list(attributes), worst, first,
-                          best.window, best.refits, anchors, best.score, _score(sim, fit, frames))
+                          best.window, best.refits, anchors, _score(sim, fit, frames))
 
 
 # -- which physics: the engine whose runs follow the video best ------------------------------------------------
