@@ -24,6 +24,11 @@ seeds in ``questions/qa_<id6>.json`` with the engine that made the dataset, ``ge
 
 Run: ``python benchmarks/reader.py --dataset DIR --workers 2 [--limit N] [--json out.json]``. Figures are printed
 (Markdown), never asserted.
+
+Frame rates: ``--fps 10`` reads the dataset's downsampled copies (``downsampled/10-fps/``, written by ``craft-dsl
+generate --videos --downsampled 5,10``) instead of the 60-fps videos, at the rate the reader measures in them (the
+same questions, the same ground truth); ``--all-questions`` scores every question of the videos read (a third table,
+``all``), for small datasets whose test parts hold few.
 """
 
 from __future__ import annotations
@@ -170,6 +175,7 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
             "events_true": len(true_events), "events_ours": len(our_events), "events_matched": matched,
             "timings": {**perception.timings, "perception": perceived_s, "answering": answer_s},
             "anchors": rec.anchors, "physics": perception.scene.physics, "tried": list(rec.tried),
+            "fps": perception.frame_rate.fps, "fps_source": perception.frame_rate.source,
             "questions": records}
 
 
@@ -187,6 +193,10 @@ def main() -> None:
     parser.add_argument("--limit", type=int, help="read only the first N test videos (a quick look)")
     parser.add_argument("--only", help="read only these video indices, e.g. 437,480-499 (development runs)")
     parser.add_argument("--json", help="write every figure and per-question record here")
+    parser.add_argument("--fps", type=int, default=60,
+                        help="read the downsampled copies at this rate (downsampled/<fps>-fps/); 60: the videos")
+    parser.add_argument("--all-questions", action="store_true",
+                        help="read every question of the videos, not only the test parts' (scored as 'all')")
     parser.add_argument("--decoders", type=int, default=0,
                         help="only compare the two decoders on this many of the test videos (median of 3 passes)")
     args = parser.parse_args()
@@ -204,6 +214,8 @@ def main() -> None:
     template = {f"{q.video_index}_{q.question_index}": q.template_id for q in records}
     truth = {f"{q.video_index}_{q.question_index}": q.answer for q in records}
     parts = {split: read_split(root / f"split_info_{split}.json", "test") for split in ("random", "hard")}
+    if args.all_questions:
+        parts["all"] = {(q.video_index, q.question_index) for q in records}
     wanted = set().union(*parts.values())
     # the reader's input: (video_index, question_index, question) of each test question, nothing else
     raw = json.loads((root / "dataset_minimal.json").read_text())
@@ -220,7 +232,8 @@ def main() -> None:
     if args.only:
         chosen = set(parse_ranges(args.only, "--only", 0, 10 ** 9, "video indices"))
         videos = [v for v in videos if v in chosen]
-    paths = find_videos(root / "videos", videos)
+    folder = root / "videos" if args.fps == 60 else root / "downsampled" / f"{args.fps}-fps"
+    paths = find_videos(folder, videos)
     if args.decoders:
         compare_decoders([paths[v] for v in videos[: args.decoders]])
         return
@@ -273,11 +286,15 @@ def report(root: Path, results: list[dict[str, Any]], parts: dict[str, set[tuple
     ok = [r for r in results if "error" not in r]
     predictions = {tuple(map(int, q["key"].split("_"))): q["answer"] for r in ok for q in r["questions"]}
     questions = read_minimal(root / "dataset_minimal.json")
-    lines = [f"{len(results)} videos ({len(results) - len(ok)} not read), {len(predictions)} questions; "
+    rates = Counter(f"{r['fps']:g} fps ({r['fps_source']})" for r in ok)
+    lines = [f"{len(results)} videos ({len(results) - len(ok)} not read; read at {', '.join(sorted(rates))}), "
+             f"{len(predictions)} questions; "
              f"{elapsed:.0f} s with {workers} workers; load average {load_before[0]:.2f} before, "
              f"{load_after[0]:.2f} after", ""]
     data: dict[str, Any] = {"videos": len(results), "failed": [r for r in results if "error" in r]}
-    for split, paper in (("random", "easy"), ("hard", "hard")):
+    for split, paper in (("random", "easy"), ("hard", "hard"), ("all", None)):
+        if split not in parts:
+            continue
         keys = {k for k in parts[split] if k in predictions}
         rep = score(questions, {k: v if v is not None else "None" for k, v in predictions.items()}, split=keys)
         lines += [f"### {split} split, test part ({len(keys)} questions)", "", "```",

@@ -6,6 +6,11 @@ The stages (each its own module): decoding (:mod:`~craft_dsl.reader.video`), lay
 The :class:`~craft_dsl.perception.PerceivedScene` written from it holds the scene id, every object with its attribute
 distributions, the static poses, per-frame tracks with velocities (the reconstructed motion) and the events of the
 reconstructed run; ``craft_dsl.perception`` executes programs over it like over any perceived scene.
+
+Frame rates: frame ``k`` shows the state after ``frame_steps[k]`` steps (:func:`~craft_dsl.reader.video.steps_shown`
+of the video's rate, :func:`~craft_dsl.reader.video.frame_rate` measuring it). Tracking runs over the frames; the
+reconstruction compares its runs with them at the steps they show, and the perceived scene is the reconstructed run
+at 60 fps (one frame per step: events to the step) whatever the video's rate.
 """
 
 from __future__ import annotations
@@ -18,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import ReaderError
 from ..perception.export import export_perceived
 from ..perception.schema import PerceivedScene
 from ..render.raster import DEFAULT_SIZE, static_layer
@@ -25,7 +31,7 @@ from ..world import WorldSpec
 from .detect import blobs, grid_labels, grid_rims
 from .layout import StaticFit, fit_layout
 from .layout_model import layout_model
-from .reconstruct import START_FRAMES, Reconstruction, fit_frames, reconstruct_best
+from .reconstruct import Reconstruction, fit_frames, reconstruct_best, start_frames
 from .track import (
     TrackedObject,
     classify_shape,
@@ -36,7 +42,7 @@ from .track import (
     track,
     verify_shape,
 )
-from .video import Decoder, decode
+from .video import Decoder, FrameRate, checked_rate, decode, frame_rate, steps_shown
 
 
 @dataclass
@@ -48,13 +54,39 @@ class Perception:
     objects: list[TrackedObject]
     reconstruction: Reconstruction
     timings: dict[str, float] = field(default_factory=dict)
+    frame_rate: FrameRate = FrameRate(60.0, "given")  # the rate the frames were read at, and where it comes from
+    frame_steps: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # step shown by each frame
+
+
+def frame_steps_of(frames: int, fps: float | None = None, frame_steps: Sequence[int] | np.ndarray | None = None
+                   ) -> tuple[FrameRate, np.ndarray]:
+    """The rate and the step each of ``frames`` frames shows: ``frame_steps`` as given (increasing steps from 1;
+    the rate is their mean), else those of ``fps`` (default 60). :class:`ReaderError` for anything else."""
+    if frame_steps is not None:
+        if fps is not None:
+            raise ReaderError("give fps or frame_steps, not both")
+        rows = np.asarray(frame_steps)
+        if rows.shape != (frames,) or not np.issubdtype(rows.dtype, np.integer) or (
+                frames and (rows[0] < 1 or np.any(np.diff(rows) <= 0))):
+            raise ReaderError(f"frame_steps must be {frames} whole, increasing steps from 1 on (one per frame), "
+                              f"got {rows.shape[0] if rows.ndim == 1 else rows.shape} values")
+        rate = checked_rate(60.0 * frames / float(rows[-1]), "the rate frame_steps give") if frames else 60.0
+        return FrameRate(rate, "given", "frame_steps"), rows.astype(np.int64)
+    rate = checked_rate(60.0 if fps is None else fps)
+    return FrameRate(rate, "given", f"{rate:g} fps"), steps_shown(frames, rate)
 
 
 def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[str, float] | None = None,
-                    engines: Sequence[str] | None = None) -> Perception:
+                    engines: Sequence[str] | None = None, fps: float | None = None,
+                    frame_steps: Sequence[int] | np.ndarray | None = None,
+                    rate: FrameRate | None = None) -> Perception:
     """Perceive decoded frames uint8 [T, H, W, 3] (``scene``: skip the identification). ``engines``: the physics
     engines to reconstruct the motion with (default :func:`~craft_dsl.reader.reconstruct.reader_engines`); the
-    reconstruction that follows the frames best is kept (:func:`~craft_dsl.reader.reconstruct.reconstruct_best`)."""
+    reconstruction that follows the frames best is kept (:func:`~craft_dsl.reader.reconstruct.reconstruct_best`).
+    ``fps`` (default 60) or ``frame_steps`` (the step each frame shows, for any other timing) say when the frames
+    were taken; ``rate`` only records where ``fps`` came from."""
+    given, rows = frame_steps_of(len(frames), fps, frame_steps)
+    rate = rate if rate is not None else given
     times = timings if timings is not None else {}
     t = time.perf_counter()
     layout = fit_layout(frames, scene=scene)
@@ -63,10 +95,11 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     times["layout"] = time.perf_counter() - t
     t = time.perf_counter()
     found = blobs(grid_labels(frames, background), grid_rims(background))
-    objects = select_objects(merge_colour_splits(track(found, len(frames))), len(model.layout.dynamic), frames)
+    objects = select_objects(merge_colour_splits(track(found, len(frames), steps=rows), rows),
+                             len(model.layout.dynamic), frames)
     for obj in objects:
         classify_shape(obj, frames, background)
-        measure_frames(obj, frames, background, fit_frames(min(START_FRAMES, len(frames))))
+        measure_frames(obj, frames, background, fit_frames(start_frames(rows)))
         verify_shape(obj, frames, background)
     times["detect"] = time.perf_counter() - t
     t = time.perf_counter()
@@ -75,16 +108,18 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
         measure_frames(obj, frames, background, which)
         refine_frames(obj, frames, background, which, shape, size)
 
-    rec = reconstruct_best(model, layout.values, objects, len(frames), steps=len(frames), engines=engines,
-                           measure=measure)
+    rec = reconstruct_best(model, layout.values, objects, len(frames), steps=int(rows[-1]), engines=engines,
+                           measure=measure, rows=rows)
     times["reconstruct"] = time.perf_counter() - t
-    perceived = to_perceived(rec, objects, layout)
-    return Perception(perceived, layout, objects, rec, times)
+    perceived = to_perceived(rec, objects, layout, rate)
+    return Perception(perceived, layout, objects, rec, times, rate, rows)
 
 
-def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: StaticFit) -> PerceivedScene:
-    """The PerceivedScene of a reconstruction: the exported run, with the attribute probabilities the detector
-    gives (the colour is read directly; shape and size from :func:`~craft_dsl.reader.track.classify_shape`)."""
+def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: StaticFit,
+                 rate: FrameRate | None = None) -> PerceivedScene:
+    """The PerceivedScene of a reconstruction: the exported run (60 fps), with the attribute probabilities the
+    detector gives (the colour is read directly; shape and size from :func:`~craft_dsl.reader.track.classify_shape`);
+    the rate the video was read at goes to ``meta`` where it is not 60 fps."""
     scene = export_perceived(rec.simulation)
     n = len(rec.attributes)
     probs: dict[int, dict[str, Any]] = {}
@@ -110,6 +145,8 @@ def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: Stat
             "refits": rec.refits, "anchors": rec.anchors,
             "max_stray_px": round(max(rec.stray_px.values(), default=0.0), 3), "mean_stray_px": round(rec.final_px, 3),
             "engines_tried": list(rec.tried)}
+    if rate is not None and rate.fps != 60.0:
+        meta.update(video_fps=rate.fps, video_fps_source=rate.source)
     return scene.model_copy(update={"objects": objs, "meta": meta})
 
 
@@ -132,10 +169,13 @@ def _with_mode(dist: dict[str, float], mode: str) -> dict[str, float]:
 
 
 def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scene: int | None = None,
-                   engines: Sequence[str] | None = None) -> Perception:
-    """Perceive a video file (see the module docstring and :func:`perceive_frames`)."""
+                   engines: Sequence[str] | None = None, fps: float | None = None,
+                   frame_steps: Sequence[int] | np.ndarray | None = None) -> Perception:
+    """Perceive a video file (see the module docstring and :func:`perceive_frames`). Its frame rate is measured
+    (:func:`~craft_dsl.reader.video.frame_rate`) unless ``fps`` or ``frame_steps`` state it."""
     timings: dict[str, float] = {}
     t = time.perf_counter()
     frames = decode(path, decoder, size=DEFAULT_SIZE)  # a video of another size is read at the reader's size
+    rate = frame_rate(path, len(frames)) if fps is None and frame_steps is None else None
     timings["decode"] = time.perf_counter() - t
-    return perceive_frames(frames, scene, timings, engines)
+    return perceive_frames(frames, scene, timings, engines, rate.fps if rate is not None else fps, frame_steps, rate)

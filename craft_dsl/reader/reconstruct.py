@@ -22,6 +22,12 @@ by running the physics engine itself:
    fitted to the next frames by Levenberg-Marquardt, and the run goes on from there (:func:`reanchor`,
    :func:`stitch`), as long as each restart pushes the first stray later.
 
+Time: frame ``k`` of the video shows the state after ``rows[k]`` steps (``k + 1`` at 60 fps; every 6th step at
+10 fps, :func:`craft_dsl.reader.video.steps_shown`); the runs are compared with the observations at those steps.
+Windows and restarts are counted in frames, their constants being those of a 60-fps video (where a frame is a
+step), converted to frames of the video's rate with a floor of :data:`MIN_WINDOW_FRAMES` frames, so that a window
+covers about the same time at any rate.
+
 What comes out is a live simulation (:class:`~craft_dsl.physics.live.LiveSimulation`): events from the engine's
 contact log, counterfactuals by clean re-simulation, exactly as for the ground truth. Where no restart helps, the run
 is kept as it is and its stray is reported.
@@ -45,8 +51,12 @@ from ..world import WorldSpec
 from .layout_model import Attributes, LayoutModel
 from .track import EYE_BIAS, TrackedObject
 
-#: Frames of the first start fit.
+#: Frames of the first start fit (at 60 fps: steps; see the module docstring for other rates).
 START_FRAMES = 40
+#: A fit or restart window holds at least this many frames (at a low rate the steps of a 60-fps window hold few);
+#: the first start fit at least START_MIN_FRAMES (a longer first window holds contacts its start guess cannot meet).
+MIN_WINDOW_FRAMES = 8
+START_MIN_FRAMES = 4
 #: Gauss-Newton iterations of a start fit.
 FIT_ITERATIONS = 8
 #: A body straying further than this from its track (pixels, in a frame where it is seen alone) triggers a refit.
@@ -96,7 +106,7 @@ class Reconstruction:
     slots: list[int]  # slot of each tracked object
     attributes: list[Attributes]  # per slot
     stray_px: dict[int, float] = field(default_factory=dict)  # uid -> largest distance from its track (pixels)
-    first_stray: dict[int, int] = field(default_factory=dict)  # uid -> first frame beyond STRAY_PX
+    first_stray: dict[int, int] = field(default_factory=dict)  # uid -> first frame (video frame) beyond STRAY_PX
     fit_frames: int = 0
     refits: int = 0
     anchors: int = 0  # restarts of straying bodies from the video
@@ -196,11 +206,14 @@ class StartFit:
     """Least-squares fit of the start draws against the measured centroids."""
 
     def __init__(self, model: LayoutModel, static_values: Mapping[str, float], attributes: Sequence[Attributes],
-                 observed: dict[int, np.ndarray], engine: PhysicsEngine, size: int = 256) -> None:
+                 observed: dict[int, np.ndarray], engine: PhysicsEngine, size: int = 256,
+                 rows: np.ndarray | None = None) -> None:
         self.model = model
         self.static_values = dict(static_values)
         self.attributes = list(attributes)
-        self.observed = observed  # slot -> [frames, 2] pixels (NaN: unseen)
+        self.observed = observed  # slot -> [frames, 3] pixels and centroid flag (NaN: unseen)
+        frames = max((o.shape[0] for o in observed.values()), default=0)
+        self.rows = _frame_rows(rows, frames)  # the step each frame shows
         self.engine = engine
         self.size = size
         n = len(model.layout.dynamic)
@@ -227,16 +240,17 @@ class StartFit:
 
     def predicted(self, world: WorldSpec, frames: int) -> dict[int, np.ndarray]:
         """slot -> [frames, 2] predicted measured centroid (pixels) over the first ``frames`` frames."""
-        raw = self.engine.run(world, frames)
+        shown = self.rows[:frames]
+        raw = self.engine.run(world, int(shown[-1]) if shown.size else 0)
         traj = raw.trajectory
         out = {}
         for s, uid in enumerate(self.uids):
             col = traj.column(uid)
-            pos = traj.positions[1:frames + 1, col]
-            ang = traj.angles[1:frames + 1, col]
+            pos = traj.positions[shown, col]
+            ang = traj.angles[shown, col]
             shape, _color, size = self.attributes[s]
             bx, by = EYE_BIAS.get((shape, size), (0.0, 0.0))
-            px, py = world_to_pixel(pos[:, 0], pos[:, 1], self.size)  # type: ignore[arg-type]
+            px, py = world_to_pixel(pos[:, 0], pos[:, 1], self.size)
             c, sn = np.cos(ang), np.sin(ang)
             # body-frame bias (y up) rotated by the angle, then to pixel axes (y down), where the observation is a
             # colour centroid
@@ -300,6 +314,26 @@ class StartFit:
         return units, cost
 
 
+def _frame_rows(rows: np.ndarray | Sequence[int] | None, frames: int) -> np.ndarray:
+    """The step each frame shows: ``rows``, or ``k + 1`` (60 fps) when None."""
+    return np.arange(1, frames + 1, dtype=np.int64) if rows is None else np.asarray(rows, dtype=np.int64)
+
+
+def frames_for(rows: np.ndarray, steps: int, least: int = 1) -> int:
+    """Frames covering about ``steps`` steps at the rate of ``rows`` (``steps`` itself at 60 fps), at least
+    ``least``; negative ``steps`` give the negative count."""
+    if steps < 0:
+        return -frames_for(rows, -steps, least)
+    per_frame = float(rows[-1]) / len(rows) if len(rows) else 1.0
+    return max(int(round(steps / per_frame)), least)
+
+
+def start_frames(rows: np.ndarray) -> int:
+    """Frames of the first start fit: :data:`START_FRAMES` at 60 fps, the frames of as many steps at other rates
+    (at least :data:`START_MIN_FRAMES`), never more than the video holds."""
+    return min(len(rows), frames_for(rows, START_FRAMES, START_MIN_FRAMES))
+
+
 def fit_frames(window: int) -> list[int]:
     """The frames of a fit window that are measured exactly (see :data:`DENSE_FRAMES`)."""
     dense = list(range(min(DENSE_FRAMES, window)))
@@ -317,7 +351,9 @@ def _product(options: Sequence[Sequence[float]]) -> list[tuple[float, ...]]:
 
 
 def _initial_units(fit: StartFit) -> np.ndarray:
-    """Start positions from the first sightings (the middle of the range for the rest)."""
+    """Start positions from the first sightings (the middle of the range for the rest); where the first frame shows
+    a later step than the first (a video of fewer than 60 fps), carried back to the start by the velocity of the
+    first two sightings."""
     from ..perception.coords import to_metres
 
     units = np.full(len(fit.paths), 0.5)
@@ -333,7 +369,11 @@ def _initial_units(fit: StartFit) -> np.ndarray:
         seen = np.nonzero(~np.isnan(obs[:, 0]))[0]
         if seen.size == 0 or (seen[0] > 0 and axis == 1):
             continue
-        x, y = to_metres(obs[seen[0], 0], obs[seen[0], 1], fit.size)
+        px, py = obs[seen[0], 0], obs[seen[0], 1]
+        if seen[0] == 0 and fit.rows[0] > 1 and seen.size > 1 and seen[1] <= 2:
+            back = float(fit.rows[0]) / float(fit.rows[seen[1]] - fit.rows[0])
+            px, py = px - back * (obs[seen[1], 0] - px), py - back * (obs[seen[1], 1] - py)
+        x, y = to_metres(px, py, fit.size)
         y = y if obs[seen[0], 2] == 0 else y - 0.3  # the colour centroid of a small body sits above its centre
         value = float(x if axis == 0 else y)
         lo, hi = bounds[path]
@@ -356,11 +396,12 @@ def _as_observed(pos: np.ndarray, ang: np.ndarray, shape_size: tuple[str, str], 
 def _predicted(sim: LiveSimulation, fit: StartFit, frames: int) -> dict[int, np.ndarray]:
     """slot -> [frames, 2]: where the run puts each observation."""
     traj = sim.raw.trajectory
+    shown = fit.rows[:frames]
     out = {}
     for s in fit.observed:
         col = traj.column(fit.uids[s])
         shape, _color, size = fit.attributes[s]
-        out[s] = _as_observed(traj.positions[1:frames + 1, col], traj.angles[1:frames + 1, col], (shape, size),
+        out[s] = _as_observed(traj.positions[shown, col], traj.angles[shown, col], (shape, size),
                               fit.observed[s][:frames, 2], fit.size)
     return out
 
@@ -415,14 +456,15 @@ class _Attempt:
 
 def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
              slots: Sequence[int], attributes: Sequence[Attributes], frames: int, steps: int, eng: PhysicsEngine,
-             measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None, refits_allowed: int) -> _Attempt:
+             measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None, refits_allowed: int,
+             rows: np.ndarray) -> _Attempt:
+    window = start_frames(rows)
     if measure is not None:
         for obj, s in zip(objects, slots):
             if s >= 0:
-                measure(obj, fit_frames(min(START_FRAMES, frames)), attributes[s][0], attributes[s][2])
+                measure(obj, fit_frames(window), attributes[s][0], attributes[s][2])
     observed = {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}
-    fit = StartFit(model, static_values, attributes, observed, eng)
-    window = min(START_FRAMES, frames)
+    fit = StartFit(model, static_values, attributes, observed, eng, rows=rows)
     units, choice, _rms = fit.fit(window, _initial_units(fit))
     refits = 0
     while True:
@@ -435,7 +477,8 @@ def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Se
         earliest = min(first.values())
         if earliest <= window:
             break
-        window = min(max(window + 10, earliest - 2), MAX_WINDOW)
+        window = min(max(window + frames_for(rows, 10), earliest - 2), frames_for(rows, MAX_WINDOW, MIN_WINDOW_FRAMES),
+                     frames)
         if measure is not None:
             for obj, s in zip(objects, slots):
                 if s >= 0:
@@ -496,12 +539,18 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
              ) -> LiveSimulation | None:
     """Restart the bodies that stray from the video a few frames before ``first_stray``, their state there fitted
     to the next :data:`ANCHOR_WINDOW` frames (Gauss-Newton on position, angle, velocity and spin of each), and run on
-    to the end. None when the fit does not follow the window better than the run it replaces."""
+    to the end. ``back`` and ``window`` are frames at 60 fps (:func:`anchor_frames` converts them). None when the fit
+    does not follow the window better than the run it replaces."""
     steps = sim.raw.log.steps
+    back, window = anchor_frames(fit.rows, back, window)
     row = max(1, first_stray - back)
     end = min(frames, row + window)
     if end - row < 4:
         return None
+    # the restart is the state just before frame ``row``'s step; the window's frames show ``rows[row:end] - start``
+    # steps of the restarted run (at 60 fps: start = row, and frames row .. end - 1 are its steps 1 .. end - row)
+    start = int(fit.rows[row]) - 1
+    shown = fit.rows[row:end] - start
     if refresh is not None:
         refresh(list(range(row, end)))
     traj = sim.raw.trajectory
@@ -511,21 +560,19 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
               if np.nanmax(np.concatenate([d[row:end], [0.0]])) > ANCHOR_MOVER_PX]
     if not movers:
         return None
-    # observations of the window: frame k shows row k + 1, so row j of a run started at the anchor is frame
-    # row + j - 1: rows 1 .. end - row are frames row .. end - 1
     obs = {s: o[row:end] for s, o in fit.observed.items()}
 
     def residual(params: np.ndarray) -> np.ndarray:
         offsets = {uid: params[6 * i:6 * i + 6] for i, uid in enumerate(movers)}
-        run = eng.run(_state_world(world, traj, row, offsets), end - row)
+        run = eng.run(_state_world(world, traj, start, offsets), int(shown[-1]))
         t = run.trajectory
         parts = []
         for s, o in obs.items():
             uid = fit.uids[s]
             c = t.column(uid)
-            n = t.positions.shape[0] - 1
+            n = shown.size
             shape, _color, size = fit.attributes[s]
-            pred = _as_observed(t.positions[1:, c], t.angles[1:, c], (shape, size), o[:n, 2], fit.size)
+            pred = _as_observed(t.positions[shown, c], t.angles[shown, c], (shape, size), o[:n, 2], fit.size)
             ok = ~np.isnan(o[:n, 0])
             w = np.where(o[:n, 2] > 0, 0.2, 1.0)  # colour centroids: a fifth of the weight of exact poses
             parts.append(((pred - o[:n, :2])[ok] * w[ok, None]).ravel())
@@ -560,24 +607,34 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
     if cost >= before:
         return None
     offsets = {uid: params[6 * i:6 * i + 6] for i, uid in enumerate(movers)}
-    tail = eng.run(_state_world(world, traj, row, offsets), steps - row)
-    raw = stitch(sim.raw, tail, row)
+    tail = eng.run(_state_world(world, traj, start, offsets), steps - start)
+    raw = stitch(sim.raw, tail, start)
     return LiveSimulation(world, raw, eng, meta=dict(sim.meta, anchors=sim.meta.get("anchors", 0) + 1))
+
+
+def anchor_frames(rows: np.ndarray, back: int, window: int) -> tuple[int, int]:
+    """A restart's (frames back, window) at the rate of ``rows``, from those of a 60-fps video (the same there)."""
+    return frames_for(rows, back), frames_for(rows, window, MIN_WINDOW_FRAMES)
 
 
 def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
                 frames: int, steps: int = 600, engine: str | PhysicsEngine = "pymunk",
-                measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None = None) -> Reconstruction:
+                measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None = None,
+                rows: np.ndarray | Sequence[int] | None = None) -> Reconstruction:
     """The simulation of a video (see the module docstring). ``measure(obj, frames)`` adds full-resolution
     measurements and exact poses of those frames to ``obj`` as (shape, size) (the fit windows use them; elsewhere
-    the blob centroids do).
+    the blob centroids do). ``rows``: the step each frame shows (default ``k + 1``, 60 fps); ``steps``: the run's
+    length, at least the last of ``rows``.
 
     When the run strays, the (shape, size) readings the detector found less likely are tried in turn (a body of the
     wrong shape makes the others stray too): the attributes whose run follows the video best are kept."""
     eng = get_engine(engine)
+    shown = _frame_rows(rows, frames)
+    if shown.size != frames or (frames and (shown[0] < 1 or shown[-1] > steps or np.any(np.diff(shown) <= 0))):
+        raise ValueError(f"rows must be {frames} increasing steps within 1..{steps}")
     slots = assign_slots(model, static_values, objects)
     attributes = slot_attributes(model, objects, slots)
-    best = _attempt(model, static_values, objects, slots, attributes, frames, steps, eng, measure, REFITS)
+    best = _attempt(model, static_values, objects, slots, attributes, frames, steps, eng, measure, REFITS, shown)
     if best.first:
         order = sorted(range(len(objects)), key=lambda i: max(objects[i].shape_size.values(), default=1.0))
         for i in order:
@@ -596,12 +653,12 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
                 tried += 1
                 trial = list(attributes)
                 trial[s] = triple
-                attempt = _attempt(model, static_values, objects, slots, trial, frames, steps, eng, measure, 0)
+                attempt = _attempt(model, static_values, objects, slots, trial, frames, steps, eng, measure, 0, shown)
                 if attempt.score < best.score - 0.2:
                     best, attributes = attempt, trial
     sim, worst, first = best.simulation, best.worst, best.first
     fit = StartFit(model, static_values, attributes,
-                   {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}, eng)
+                   {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}, eng, rows=shown)
     anchors = 0
 
     def refresh(which: Sequence[int]) -> None:
@@ -621,7 +678,7 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
                 continue
             # progress: from the restart on, the run follows the video longer than before (earlier frames are the
             # old run's, whatever outliers they hold)
-            row = max(1, earliest - back)
+            row = max(1, earliest - anchor_frames(shown, back, window)[0])
             new_worst, new_first = stray(restarted, fit, frames, start=row)
             if back >= 0:
                 old_at = earliest
@@ -662,8 +719,8 @@ def follows_closely(rec: Reconstruction) -> bool:
 
 def reconstruct_best(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
                      frames: int, steps: int = 600, engines: Sequence[str] | None = None,
-                     measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None = None
-                     ) -> Reconstruction:
+                     measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None = None,
+                     rows: np.ndarray | Sequence[int] | None = None) -> Reconstruction:
     """:func:`reconstruct` with each of ``engines`` in turn (default :func:`reader_engines`) until one follows the
     video closely (:func:`follows_closely`); of those tried, the one whose kept run is nearest the tracks (mean
     distance, ``final_px``), an earlier engine unless a later one is nearer by more than :data:`ENGINE_MARGIN_PX`.
@@ -677,7 +734,9 @@ def reconstruct_best(model: LayoutModel, static_values: Mapping[str, float], obj
     best: Reconstruction | None = None
     tried: list[str] = []
     for name in names:
-        rec = reconstruct(model, static_values, objects, frames, steps, name, measure)
+        # rows only when given: reconstruct's callers (and stand-ins) without them read a 60-fps video
+        rec = reconstruct(model, static_values, objects, frames, steps, name, measure,
+                          **({"rows": rows} if rows is not None else {}))
         tried.append(name)
         if best is None or rec.final_px < best.final_px - ENGINE_MARGIN_PX:
             best = rec

@@ -7,7 +7,9 @@ seen in at least :data:`MIN_FRAMES` frames (bodies of one colour touch, hide in 
 picture for a while, but not for the whole video). In each frame, blobs are given to the colour's bodies by a
 nearest-neighbour assignment from their last positions, with the blob's area as a second cue; a blob covering two
 bodies of one colour (its area about their sum) is given to neither, and that frame is left out for both: the
-physics fills it in.
+physics fills it in. In a video of fewer than 60 frames per second (``steps``: the step each frame shows) a body
+moves up to 12 times further between frames: its last position is carried forward by its velocity over the steps
+between (from its last two sightings) before the assignment; at 60 fps the last position is used as it is.
 
 Shape and size come from the full-resolution measurement (:mod:`craft_dsl.reader.measure`) of the frames where the
 body is complete: the median area, the largest radius over the square root of the area, and the normalised second
@@ -137,9 +139,29 @@ def _assign(previous: list[tuple[float, float] | None], areas: list[float | None
     return out
 
 
-def track(blobs: Sequence[Blob], frames: int, counts: dict[int, int] | None = None) -> list[TrackedObject]:
-    """The bodies of every colour with their blob per frame."""
+#: Velocities (pixels per step) from sightings further apart than this many steps are not used for the prediction.
+MAX_VELOCITY_GAP = 24
+
+
+def _carried(last: tuple[int, float, float] | None, before: tuple[int, float, float] | None, step: int
+             ) -> tuple[float, float] | None:
+    """Where a body last seen at (step, x, y) ``last`` (and before that at ``before``) is expected at ``step``."""
+    if last is None:
+        return None
+    if before is None or last[0] - before[0] > MAX_VELOCITY_GAP:
+        return (last[1], last[2])
+    span = last[0] - before[0]
+    ahead = step - last[0]
+    return (last[1] + (last[1] - before[1]) * ahead / span, last[2] + (last[2] - before[2]) * ahead / span)
+
+
+def track(blobs: Sequence[Blob], frames: int, counts: dict[int, int] | None = None,
+          steps: np.ndarray | Sequence[int] | None = None) -> list[TrackedObject]:
+    """The bodies of every colour with their blob per frame; ``steps``: the step each frame shows (default: one
+    frame per step, 60 fps)."""
     counts = counts if counts is not None else count_per_color(blobs, frames)
+    rows = None if steps is None else [int(v) for v in steps]
+    predict = rows is not None and len(rows) > 0 and rows[-1] > len(rows)  # frames skip steps
     by_frame: dict[tuple[int, int], list[Blob]] = defaultdict(list)
     for b in blobs:
         if b.area >= SUBSTANTIAL_AREA:
@@ -150,13 +172,21 @@ def track(blobs: Sequence[Blob], frames: int, counts: dict[int, int] | None = No
         tracks: list[list[Blob | None]] = [[None] * frames for _ in range(n)]
         previous: list[tuple[float, float] | None] = [None] * n
         areas: list[float | None] = [None] * n
+        sightings: list[list[tuple[int, float, float]]] = [[] for _ in range(n)]  # (step, x, y), the last two
         # seed the order of the bodies by area where all are first seen apart
         for k in range(frames):
+            if predict and n > 1:
+                assert rows is not None
+                previous = [_carried(seen[-1] if seen else None, seen[-2] if len(seen) > 1 else None, rows[k])
+                            for seen in sightings]
             chosen = _assign(previous, areas, by_frame.get((color, k), []))
             for i, chosen_blob in enumerate(chosen):
                 if chosen_blob is not None:
                     tracks[i][k] = chosen_blob
                     previous[i] = (chosen_blob.x, chosen_blob.y)
+                    if predict:
+                        assert rows is not None
+                        sightings[i] = [*sightings[i][-1:], (rows[k], chosen_blob.x, chosen_blob.y)]
                     if not chosen_blob.touches_edge:
                         old = areas[i]
                         areas[i] = chosen_blob.area if old is None else 0.9 * old + 0.1 * chosen_blob.area
@@ -170,10 +200,11 @@ def _position(obj: TrackedObject, k: int) -> tuple[float, float]:
     return (b.x, b.y)
 
 
-def same_body(a: TrackedObject, b: TrackedObject) -> bool:
+def same_body(a: TrackedObject, b: TrackedObject, steps: Sequence[int] | None = None) -> bool:
     """Whether two tracks of different colours are one body read in two colours (a small dark body loses its
     chroma to the compression and reads as gray in some frames): they are seen together in few frames, always at
-    the same place when they are, and where one is seen the other was seen close by a few frames before or after."""
+    the same place when they are, and where one is seen the other was seen close by a few frames before or after
+    (12 px within 3 steps; further apart in steps, ``steps`` being the step each frame shows, 4 px more per step)."""
     sa, sb = set(a.seen()), set(b.seen())
     if not sa or not sb:
         return False
@@ -188,7 +219,8 @@ def same_body(a: TrackedObject, b: TrackedObject) -> bool:
         for d in (1, -1, 2, -2, 3, -3):
             if k + d in sb:
                 checked += 1
-                near += int(math.dist(_position(a, k), _position(b, k + d)) < 12.0)
+                apart = abs(steps[k + d] - steps[k]) if steps is not None else abs(d)
+                near += int(math.dist(_position(a, k), _position(b, k + d)) < 12.0 + 4.0 * max(apart - 3, 0))
                 break
     return checked >= 3 and near >= 0.8 * checked
 
@@ -198,7 +230,8 @@ def _evidence(obj: TrackedObject) -> float:
     return sum(b.area for b in obj.blobs if b is not None)
 
 
-def merge_colour_splits(objects: list[TrackedObject]) -> list[TrackedObject]:
+def merge_colour_splits(objects: list[TrackedObject], steps: Sequence[int] | np.ndarray | None = None
+                        ) -> list[TrackedObject]:
     """Join the tracks of a body read in two colours (:func:`same_body`); the chromatic colour wins over gray, else
     the colour seen over more pixels in all (a large red cube in a grey basket reads brown there, in many frames but
     over few pixels)."""
@@ -208,7 +241,7 @@ def merge_colour_splits(objects: list[TrackedObject]) -> list[TrackedObject]:
         merged = False
         for i, a in enumerate(out):
             for b in out[i + 1:]:
-                if a.color == b.color or not same_body(a, b):
+                if a.color == b.color or not same_body(a, b, None if steps is None else [int(v) for v in steps]):
                     continue
                 keep, drop = (a, b) if (b.color == GRAY or (a.color != GRAY and _evidence(a) >= _evidence(b))) \
                     else (b, a)

@@ -6,20 +6,39 @@ Two decoders, both shipping their own FFmpeg and both core dependencies: PyAV (i
 CPU in all, so it is used when installed; on a busy machine the pipe, whose decoder runs in its own process, can be
 faster (docs/reader.md). Both decode single-threaded so that several videos can be read in parallel processes.
 
-Raw MPEG-1 streams (``.mpg``, as the published dataset stores them) carry no trustworthy timestamps, so frames are
-taken by position: frame ``k`` shows the state after ``k + 1`` physics steps.
+Frames are taken by position, and the frame rate says which physics step each shows: at ``fps`` frames per
+second frame ``k`` (0-based) shows the state after ``round((k + 1) * 60 / fps)`` steps, the renderer's rule
+(:func:`craft_dsl.render.raster.frame_steps`); at 60 fps, ``k + 1``. :func:`frame_rate` measures the rate:
+
+* raw MPEG-1/2 (``.mpg``): the frame rate code of the sequence header. Their timestamps are not trustworthy (PyAV
+  and ffmpeg report 25 fps for craft_dsl's and the original's 60-fps files), the header is: 60 in both.
+* containers (``.mp4``, ``.mkv``, ``.avi``, ``.webm``, ``.mov``): the stream's average rate (PyAV), else its base
+  rate.
+* nothing stated: the number of frames over a CRAFT run of :data:`RUN_STEPS` steps (10 s), rounded up to the next
+  common rate (:data:`COMMON_RATES`), so that a video missing some frames at the end keeps its rate (590 frames:
+  60 fps; 97 frames: 10 fps). More frames than a 60-fps run holds: 60 fps (a longer run).
+
+Rates within 0.2 % of a whole number are that number (NTSC's 59.94 is 60). A rate that does not divide 60 (25,
+24 fps) maps each frame time to the nearest step, as the renderer does. Rates above 60 fps are refused
+(:class:`~craft_dsl.errors.ReaderError`): the simulation has 60 states per second, so such a video repeats frames;
+re-encode it at 60 fps or less.
 """
 
 from __future__ import annotations
 
+import math
 import os
+import re
 import subprocess
+from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
 
 from ..errors import ReaderError
+from ..render.raster import SIM_FPS
 
 Decoder = Literal["auto", "pyav", "ffmpeg"]
 DECODERS: tuple[str, ...] = ("auto", "pyav", "ffmpeg")
@@ -134,7 +153,9 @@ _MPEG_SEQUENCE_HEADER = b"\x00\x00\x01\xb3"
 def incomplete(path: str | os.PathLike[str], frames: int) -> str | None:
     """Why the video file at ``path``, of which ``frames`` frames were decoded, is not whole (None when nothing says
     so): an MPEG-1 elementary stream that ends without its end code was cut short; a container that states its
-    frame count and holds fewer decodable frames lost some."""
+    frame count and holds fewer decodable frames lost some. For a container of fewer than 60 fps a count above the
+    stated one is taken as frames at 60 fps, i.e. the steps the decoded frames show (what a perceived scene's
+    ``video.frames`` holds): the file lost frames when they show fewer steps than its stated frames do."""
     target = Path(path)
     with target.open("rb") as f:
         head = f.read(4)
@@ -150,9 +171,145 @@ def incomplete(path: str | os.PathLike[str], frames: int) -> str | None:
 
     try:
         with av.open(str(target)) as container:
-            stated = int(container.streams.video[0].frames or 0)
+            stream = container.streams.video[0]
+            stated = int(stream.frames or 0)
+            rate = float(stream.average_rate) if stream.average_rate else float(SIM_FPS)
     except Exception:  # noqa: BLE001 - decoding already succeeded; a container that cannot say is not evidence
         return None
     if stated and frames < stated:
         return f"{frames} of the {stated} frames its container states could be decoded"
+    if stated and frames > stated and 0 < rate < SIM_FPS:
+        whole = int(steps_shown(stated, min(rate, SIM_FPS))[-1])
+        if frames < whole:
+            return (f"its frames show {frames} of the {whole} steps its container's {stated} frames at {rate:g} fps "
+                    f"show")
     return None
+
+
+# -- frame rate: which physics step each frame shows ---------------------------------------------------------------
+
+#: Steps of a CRAFT run (10 s at 60 steps per second): the run a frame count is measured against when no rate is
+#: stated.
+RUN_STEPS = 600
+#: Rates a frame count is rounded up to when no rate is stated: the divisors of 60 and the usual video rates.
+COMMON_RATES: tuple[int, ...] = (1, 2, 3, 4, 5, 6, 10, 12, 15, 20, 24, 25, 30, 50, 60)
+#: MPEG-1/2 sequence header frame rate codes (ISO 11172-2, and the extra codes 9-13 FFmpeg writes when asked for a
+#: rate the standard lacks).
+MPEG_FRAME_RATES: dict[int, Fraction] = {
+    1: Fraction(24000, 1001), 2: Fraction(24), 3: Fraction(25), 4: Fraction(30000, 1001), 5: Fraction(30),
+    6: Fraction(50), 7: Fraction(60000, 1001), 8: Fraction(60), 9: Fraction(15), 10: Fraction(5), 11: Fraction(10),
+    12: Fraction(12), 13: Fraction(15)}
+#: Bytes searched for an MPEG sequence header.
+_HEADER_SEARCH = 1 << 16
+
+
+@dataclass(frozen=True)
+class FrameRate:
+    """The frame rate a video is read at, and where it comes from: ``given`` (the caller's), ``stated`` (the
+    file's), ``count`` (inferred from the number of frames)."""
+
+    fps: float
+    source: Literal["given", "stated", "count"]
+    detail: str = ""
+
+
+def checked_rate(fps: float, what: str = "the frame rate") -> float:
+    """``fps`` as the reader uses it: a positive number of at most 60, snapped to a whole number within 0.2 %;
+    :class:`ReaderError` otherwise."""
+    if isinstance(fps, bool) or not isinstance(fps, int | float | Fraction) or not math.isfinite(float(fps)) \
+            or fps <= 0:
+        raise ReaderError(f"{what} must be a positive number of frames per second, got {fps!r}")
+    value = float(fps)
+    whole = round(value)
+    if whole >= 1 and abs(value - whole) <= 2e-3 * whole:
+        value = float(whole)
+    if value > SIM_FPS:
+        raise ReaderError(f"{what} is {value:g} fps, above the simulation's {SIM_FPS} steps per second: such a video "
+                          f"repeats frames, which the reader does not read; re-encode it at {SIM_FPS} fps or less "
+                          f"(e.g. ffmpeg -i IN -r {SIM_FPS} OUT.mp4)")
+    return value
+
+
+def steps_shown(frames: int, fps: float) -> np.ndarray:
+    """int64 [frames]: the physics step shown by each frame at ``fps`` (frame ``k``, 0-based: ``round((k + 1) * 60 /
+    fps)``, halves down, exactly as :func:`craft_dsl.render.raster.frame_steps`); strictly increasing."""
+    rate = checked_rate(fps)
+    k = np.arange(1, frames + 1, dtype=np.float64)
+    return np.floor(k * SIM_FPS / rate + 0.5 - 1e-9).astype(np.int64)
+
+
+def infer_rate(frames: int, steps: int = RUN_STEPS) -> float:
+    """The rate of ``frames`` frames over a run of ``steps`` steps when nothing states it: the smallest of
+    :data:`COMMON_RATES` whose whole run holds at least that many frames (60 when none does)."""
+    for rate in COMMON_RATES:
+        if frames <= math.floor(steps * rate / SIM_FPS + 1e-9):
+            return float(rate)
+    return float(SIM_FPS)
+
+
+def mpeg_header_rate(path: str | os.PathLike[str]) -> Fraction | None:
+    """The frame rate of the first MPEG-1/2 sequence header in the file's first 64 KiB (None: no header or an
+    unknown code)."""
+    with Path(path).open("rb") as f:
+        head = f.read(_HEADER_SEARCH)
+    at = head.find(_MPEG_SEQUENCE_HEADER)
+    if at < 0 or at + 8 > len(head):
+        return None
+    return MPEG_FRAME_RATES.get(head[at + 7] & 0x0F)
+
+
+def _container_rate(path: Path) -> Fraction | None:
+    """The video stream's stated rate: PyAV's average rate, else its base rate; ffmpeg's report without PyAV."""
+    if have_pyav():
+        import av
+
+        try:
+            with av.open(str(path)) as container:
+                stream = container.streams.video[0]
+                for rate in (stream.average_rate, stream.base_rate):
+                    if rate is not None and rate > 0:
+                        return Fraction(rate.numerator, rate.denominator)
+        except Exception:  # noqa: BLE001 - a file PyAV cannot probe states nothing
+            return None
+        return None
+    import imageio_ffmpeg
+
+    proc = subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-i", str(path)], capture_output=True,
+                          text=True, check=False)
+    match = re.search(r"Video:.*?(\d+(?:\.\d+)?)(k?) fps", proc.stderr)
+    if match is None:
+        return None
+    return Fraction(match.group(1)) * (1000 if match.group(2) else 1)
+
+
+def is_raw_mpeg(path: str | os.PathLike[str]) -> bool:
+    """Whether the file is an MPEG-1/2 stream without a container of timestamps worth reading: a ``.mpg``/``.mpeg``
+    file, or one that starts with a sequence header or an MPEG program stream pack."""
+    target = Path(path)
+    if target.suffix.lower() in (".mpg", ".mpeg", ".m1v", ".m2v"):
+        return True
+    with target.open("rb") as f:
+        head = f.read(4)
+    return head in (_MPEG_SEQUENCE_HEADER, b"\x00\x00\x01\xba")
+
+
+def stated_rate(path: str | os.PathLike[str]) -> tuple[Fraction, str] | None:
+    """The rate the file states and where it says it (None: it states none)."""
+    target = Path(path)
+    if is_raw_mpeg(target):
+        rate = mpeg_header_rate(target)
+        return None if rate is None else (rate, "the MPEG sequence header")
+    rate = _container_rate(target)
+    return None if rate is None else (rate, "the container")
+
+
+def frame_rate(path: str | os.PathLike[str], frames: int) -> FrameRate:
+    """The rate the video at ``path``, of which ``frames`` frames were decoded, is read at (see the module
+    docstring); :class:`ReaderError` for a stated rate above 60 fps."""
+    stated = stated_rate(path)
+    if stated is not None:
+        rate, where = stated
+        fps = checked_rate(float(rate), f"{Path(path).name}: the frame rate {where} states")
+        return FrameRate(fps, "stated", f"{where} states {float(rate):g} fps")
+    fps = infer_rate(frames)
+    return FrameRate(fps, "count", f"{frames} frames over a {RUN_STEPS}-step run")
