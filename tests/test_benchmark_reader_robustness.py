@@ -1,0 +1,156 @@
+"""benchmarks/reader_robustness.py: each variant's copy decodes with its codec, size and frame count; resampled
+frames show the steps stated (ffmpeg's ``fps=10`` 3 steps early, ``fps=10:round=down`` the renderer's steps)."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+import pytest
+
+from craft_dsl.physics import simulate
+from craft_dsl.reader.answer import find_videos
+from craft_dsl.reader.video import decode
+from craft_dsl.render.video import write_video
+
+SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "reader_robustness.py"
+STEPS = 60
+
+
+@pytest.fixture(scope="module")
+def rr() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("reader_robustness", SCRIPT)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A 60-step MPEG-1 video of scene 1 (objects falling from the first step), named as a dataset names it."""
+    out = tmp_path_factory.mktemp("tiny") / "000000.mpg"
+    write_video(simulate(1, seed=0, steps=STEPS), out)
+    return out
+
+
+@pytest.fixture(scope="module")
+def copies(rr: ModuleType, tiny: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """Every copied variant of ``tiny``, each in its own folder (made with two ffmpeg processes at a time)."""
+    root = tmp_path_factory.mktemp("copies")
+    out = {}
+    for name, variant in rr.VARIANTS.items():
+        if variant.copied:
+            out[name] = rr.make_copies({0: tiny}, variant, root / name, 2, rr.ffmpeg_exe())[0]
+    return out
+
+
+def test_every_variant_but_the_original_is_copied(rr: ModuleType, copies: dict[str, Path]) -> None:
+    assert set(copies) == set(rr.VARIANTS) - {"original"}
+
+
+@pytest.mark.parametrize("name", ["h264-crf28", "mpeg4-q8", "scale-128", "scale-512", "fps-10", "fps-10-down"])
+def test_a_copy_decodes_with_its_codec_size_and_frames(rr: ModuleType, tiny: Path, copies: dict[str, Path],
+                                                       name: str) -> None:
+    variant = rr.VARIANTS[name]
+    copy = copies[name]
+    assert copy.name == f"000000{variant.suffix}"
+    assert find_videos([copy.parent], [0]) == {0: copy}  # the name craft-dsl read --videos FOLDER finds
+    want = rr.expected(variant, STEPS, 256)
+    found = rr.describe(copy)
+    assert {k: found[k] for k in want} == want
+    assert found["fps"] == pytest.approx(variant.fps or 60)
+    assert want["frames"] == (10 if variant.fps else STEPS)
+    frames = decode(copy)  # the reader's decoder
+    assert frames.shape == (want["frames"], want["height"], want["width"], 3)
+
+
+def test_the_original_is_what_it_says(rr: ModuleType, tiny: Path) -> None:
+    assert rr.describe(tiny) == {"codec": "mpeg1video", "width": 256, "height": 256, "frames": STEPS, "fps": 60.0}
+
+
+def test_ffmpeg_fps_filter_shows_steps_3_early_and_round_down_the_renderers(
+        rr: ModuleType, tiny: Path, copies: dict[str, Path], tmp_path: Path) -> None:
+    near = rr.step_offsets(tiny, copies["fps-10"], 10)
+    down = rr.step_offsets(tiny, copies["fps-10-down"], 10)
+    assert len(near) >= 8 and set(near) == {-3}
+    assert len(down) >= 8 and set(down) == {0}
+    # craft-dsl render --fps 10 (lossy H.264) is the round=down copy, up to its encoding
+    rendered = decode(write_video(simulate(1, seed=0, steps=STEPS), tmp_path / "r10.mp4", fps=10)).astype(np.int16)
+    gap_down = np.abs(decode(copies["fps-10-down"]).astype(np.int16) - rendered).mean()
+    gap_near = np.abs(decode(copies["fps-10"]).astype(np.int16) - rendered).mean()
+    assert gap_down < 0.5 < gap_near
+
+
+def test_a_missing_encoder_is_named(rr: ModuleType) -> None:
+    variant = rr.Variant("x", ".mp4", ("-c:v", "nosuch"), "nosuch", "nosuch")
+    why = rr.unavailable(variant, "/bin/ffmpeg", {"libx264"})
+    assert why is not None and "no nosuch encoder" in why and "IMAGEIO_FFMPEG_EXE" in why
+    assert rr.unavailable(rr.VARIANTS["original"], "/bin/ffmpeg", set()) is None
+
+
+def test_a_copy_that_fails_names_the_variant_and_file(rr: ModuleType, tmp_path: Path) -> None:
+    bad = tmp_path / "000001.mpg"
+    bad.write_bytes(b"not a video")
+    with pytest.raises(rr.CopyError, match=r"h264-crf28: ffmpeg could not write 000001\.mp4"):
+        rr.make_copies({1: bad}, rr.VARIANTS["h264-crf28"], tmp_path / "out", 1, rr.ffmpeg_exe())
+
+
+def test_a_folder_that_is_not_a_dataset_is_named(rr: ModuleType, tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    assert rr.main(["--dataset", str(tmp_path)]) == 2
+    assert "dataset_minimal.json: missing; --dataset must be a folder written by craft-dsl generate --videos" in \
+        capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        rr.main(["--dataset", str(tmp_path / "none")])
+    with pytest.raises(SystemExit):
+        rr.main(["--dataset", str(tmp_path), "--variants", "nosuch"])
+
+
+def test_a_variant_that_cannot_be_made_is_a_row_of_its_own(rr: ModuleType, users_dataset: Path) -> None:
+    suite = rr.load_suite(users_dataset, 1)
+    variant = rr.Variant("x", ".mp4", ("-c:v", "nosuch"), "nosuch", "nosuch")
+    sources = find_videos(users_dataset / "videos", suite.videos)
+    row = rr.run_variant(variant, suite, sources, Path("unused"), 1, rr.ffmpeg_exe(), {"libx264"}, {})
+    assert "no nosuch encoder" in row["reason"] and "figures" not in row
+    printed = rr.table({"x": row}, suite)
+    assert "| x | failed: " in printed
+
+
+def test_two_videos_in_two_variants(rr: ModuleType, users_dataset: Path, tmp_path: Path,
+                                    capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "figures.json"
+    assert rr.main(["--dataset", str(users_dataset), "--videos", "2", "--variants", "original,fps-10-down",
+                    "--workers", "1", "--json", str(out)]) == 0
+    rows = json.loads(out.read_text())["variants"]
+    assert list(rows) == ["original", "fps-10-down"]
+    assert "reason" not in rows["original"] and rows["original"]["figures"]["not_read"] == 0
+    assert "figures" in rows["fps-10-down"] or "reason" in rows["fps-10-down"]  # a failed variant is reported
+    assert rows["fps-10-down"]["check"]["step_offsets"].keys() <= {"0"}
+    printed = capsys.readouterr().out
+    assert "| original |" in printed and "| fps-10-down |" in printed
+
+
+@pytest.mark.skipif(os.environ.get("CRAFT_DSL_SLOW") != "1",
+                    reason="reads 2 videos in all 7 variants (about 90 s on 2 busy cores): set CRAFT_DSL_SLOW=1")
+def test_the_whole_script_on_two_videos(rr: ModuleType, users_dataset: Path, tmp_path: Path,
+                                        capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "figures.json"
+    assert rr.main(["--dataset", str(users_dataset), "--videos", "2", "--workers", "2", "--json", str(out),
+                    "--keep", str(tmp_path / "kept")]) == 0
+    data = json.loads(out.read_text())
+    assert list(data["variants"]) == list(rr.VARIANTS)
+    original = data["variants"]["original"]
+    assert "reason" not in original and original["figures"]["not_read"] == 0
+    for name, row in data["variants"].items():
+        assert "figures" in row or "reason" in row, name
+        if rr.VARIANTS[name].copied:
+            assert len(list((tmp_path / "kept" / name).iterdir())) == 2
+    printed = capsys.readouterr().out
+    assert "| original |" in printed and "| fps-10 |" in printed
