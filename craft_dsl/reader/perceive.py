@@ -100,7 +100,7 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     for obj in objects:
         classify_shape(obj, frames, background)
         measure_frames(obj, frames, background, fit_frames(start_frames(rows)))
-        verify_shape(obj, frames, background)
+        verify_shape(obj, frames, background, sparse=bool(rows.size and rows[-1] > rows.size))
     times["detect"] = time.perf_counter() - t
     t = time.perf_counter()
 

@@ -72,6 +72,10 @@ SECOND_ENGINE_PX = 2.0
 ENGINE_MARGIN_PX = 0.2
 #: Longest window (frames) of a refit: beyond it the engine runs cost more than they pin down.
 MAX_WINDOW = 150
+#: A refit's window grows by at least this many frames (at 60 fps), and at least MIN_REFIT_GROWTH frames at any
+#: rate: a body that enters the picture after the window is fitted once the window holds a few frames of it.
+REFIT_GROWTH = 10
+MIN_REFIT_GROWTH = 4
 #: Frames measured exactly in a fit window: every one of the first DENSE_FRAMES, then about FIT_SAMPLES spread over
 #: the rest (the blob centroids fill in between).
 DENSE_FRAMES = 16
@@ -465,7 +469,12 @@ def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Se
                 measure(obj, fit_frames(window), attributes[s][0], attributes[s][2])
     observed = {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}
     fit = StartFit(model, static_values, attributes, observed, eng, rows=rows)
-    units, choice, _rms = fit.fit(window, _initial_units(fit))
+    start = _initial_units(fit)
+    if rows.size and rows[-1] > rows.size and window > START_MIN_FRAMES:
+        # frames further apart than a step: the start guess is further off and the window's few frames leave the
+        # fit local minima; the shortest window first, its draws the guess of the whole window
+        start = fit.fit(START_MIN_FRAMES, start)[0]
+    units, choice, _rms = fit.fit(window, start)
     refits = 0
     while True:
         world = fit.world(units, choice)
@@ -477,8 +486,8 @@ def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Se
         earliest = min(first.values())
         if earliest <= window:
             break
-        window = min(max(window + frames_for(rows, 10), earliest - 2), frames_for(rows, MAX_WINDOW, MIN_WINDOW_FRAMES),
-                     frames)
+        window = min(max(window + frames_for(rows, REFIT_GROWTH, MIN_REFIT_GROWTH), earliest - 2),
+                     frames_for(rows, MAX_WINDOW, MIN_WINDOW_FRAMES), frames)
         if measure is not None:
             for obj, s in zip(objects, slots):
                 if s >= 0:
