@@ -26,11 +26,15 @@ processes at a time, one thread each. A variant whose encoder this ffmpeg lacks,
 reported as failed in the table and skipped; a video the reader cannot read counts its questions as wrong.
 
 Printed (Markdown): per variant, accuracy (%) per test part and paper column (C, CF, D, All) with the difference in
-points against ``original``, videos whose layout was identified, fallback answers (guesses: ``fallback`` in
-``craft-dsl read --details``), videos read with a warning (not whole), videos not read, seconds of perception per
-video (decoding included) and of encoding per video; then accuracy per paper sub-category over the test questions of
-both parts; then what was checked of each variant's first copy (codec, size, frames; the step offset of resampled
-frames). ``--json OUT`` writes every figure. No randomness: the same inputs give the same figures (timings aside).
+points against ``original``, the questions it answers wrong that ``original`` answers right and the reverse,
+videos whose layout was identified, fallback answers (guesses: ``fallback`` in ``craft-dsl read --details``), videos
+read with a warning (not whole), videos not read, seconds of perception per video (decoding included) and of encoding
+per video; then accuracy per paper sub-category over the test questions of both parts; then what was checked of each
+variant's first copy (codec, size, frames; the step offset of resampled frames). ``--json OUT`` writes every figure.
+No randomness: the same inputs give the same figures (timings aside).
+
+Each variant's reading imports ``craft_dsl`` afresh (its worker processes): in a checkout being edited, run it with
+``PYTHONPATH`` at a snapshot (``git archive HEAD | tar -x -C SNAP``), or variants are read by different readers.
 
 Run: ``python benchmarks/reader_robustness.py --dataset DIR --workers 2 [--variants a,b] [--videos N] [--keep DIR]
 [--json out.json]``.
@@ -40,6 +44,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -58,7 +63,7 @@ from craft_dsl.reader.answer import Question, find_videos, read_questions
 from craft_dsl.reader.cli import read_video
 from craft_dsl.reader.runs import run_tasks
 from craft_dsl.render.raster import frame_steps
-from craft_dsl.verify import read_minimal, read_split, score
+from craft_dsl.verify import answers_agree, read_minimal, read_split, score
 from craft_dsl.verify.categories import CATEGORIES, FAMILIES
 
 #: ffmpeg options of lossless H.264 in the originals' pixel format.
@@ -287,13 +292,16 @@ def true_scenes(tests: Suite) -> dict[int, int]:
 def figures(results: dict[int, dict[str, Any]], tests: Suite, scenes: dict[int, int]) -> dict[str, Any]:
     """Accuracy per part (paper columns, sub-categories) and the reader's own counts for one variant. A video not
     read counts its questions as wrong (``missing`` in the scores)."""
-    predictions = {key: (a if a is not None else "None") for r in results.values() for key, a in
-                   r.get("answers", {}).items()}
+    predictions = {tuple(map(int, key.split("_"))): (a if a is not None else "None") for r in results.values()
+                   for key, a in r.get("answers", {}).items()}
     minimal = read_minimal(tests.root / "dataset_minimal.json")
     out: dict[str, Any] = {"parts": {}}
     for split, _ in PARTS:
         out["parts"][split] = score(minimal, predictions, split=tests.parts[split]).to_json()
     out["both"] = score(minimal, predictions, split=set().union(*tests.parts.values())).to_json()
+    keys = set().union(*tests.parts.values())
+    out["correct"] = {f"{q.key[0]}_{q.key[1]}": q.key in predictions and answers_agree(predictions[q.key], q.answer)
+                      for q in minimal if q.key in keys}
     read = [r for r in results.values() if "error" not in r]
     out.update(
         videos=len(results), not_read=len(results) - len(read),
@@ -324,7 +332,8 @@ def table(rows: dict[str, dict[str, Any]], tests: Suite) -> str:
     head = ["variant"]
     for _split, paper in parts:
         head += [f"{paper} {col}" for col in (*FAMILIES, "All")]
-    head += ["layout ok", "fallback answers", "warnings", "videos not read", "perception s/video", "encode s/video"]
+    head += ["right→wrong / wrong→right vs original", "layout ok", "fallback answers", "warnings", "videos not read",
+             "perception s/video", "encode s/video"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, row in rows.items():
         fig = row.get("figures")
@@ -336,6 +345,12 @@ def table(rows: dict[str, dict[str, Any]], tests: Suite) -> str:
             acc = fig["parts"][split]["accuracy"]
             ref = base["parts"][split]["accuracy"] if base is not None and name != "original" else {}
             cells += [_cell(acc[c], ref.get(c)) for c in (*FAMILIES, "All")]
+        if base is not None and name != "original":
+            lost = sum(ok and not fig["correct"].get(k, False) for k, ok in base["correct"].items())
+            gained = sum(not ok and fig["correct"].get(k, False) for k, ok in base["correct"].items())
+            cells.append(f"{lost} / {gained}")
+        else:
+            cells.append("-")
         cells += [f"{fig['layout_ok']}/{fig['layout_known']}", str(fig["fallback"]), str(fig["warnings"]),
                   str(fig["not_read"]),
                   f"{fig['perception_s']:.2f}" if fig["perception_s"] is not None else "-",
@@ -462,6 +477,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             [{"video_index": q.video_index, "question_index": q.question_index, "question": q.text}
              for q in tests.questions]))
     rows: dict[str, dict[str, Any]] = {}
+    load_before = os.getloadavg()[0]
     t0 = time.perf_counter()
     for name in names:
         variant = VARIANTS[name]
@@ -482,8 +498,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         if "reason" in rows[name]:
             print(f"  {name} failed: {rows[name]['reason']}", file=sys.stderr)
     elapsed = time.perf_counter() - t0
+    load_after = os.getloadavg()[0]
     counts = ", ".join(f"{paper} {len(tests.parts[split])}" for split, paper in PARTS)
-    lines = [f"{root}: {len(tests.videos)} test videos, questions: {counts}; {args.workers} workers, {elapsed:.0f} s",
+    lines = [f"{root}: {len(tests.videos)} test videos, questions: {counts}; {args.workers} workers, "
+             f"{elapsed:.0f} s; load average {load_before:.1f} before, {load_after:.1f} after",
              "", table(rows, tests), "", "Videos checked (the first test video of each variant):", ""]
     for name, row in rows.items():
         check = row.get("check")
@@ -510,7 +528,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     print("\n".join(lines))
     if args.json:
         Path(args.json).write_text(json.dumps({"dataset": str(root), "videos": tests.videos, "workers": args.workers,
-                                               "ffmpeg": exe, "elapsed_s": elapsed,
+                                               "ffmpeg": exe, "elapsed_s": elapsed, "load": [load_before, load_after],
                                                "parts": {s: len(k) for s, k in tests.parts.items()},
                                                "variants": rows}, indent=1, default=str))
     return 0
