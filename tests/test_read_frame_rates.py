@@ -36,10 +36,11 @@ def sim() -> LiveSimulation:
 
 @pytest.fixture(scope="module")
 def videos(sim: LiveSimulation, tmp_path_factory: pytest.TempPathFactory) -> dict[int, Path]:
-    """The run at 60 fps (MPEG-1, as the dataset stores it) and at 10 and 5 fps (H.264, as --downsampled does)."""
+    """The run at 60 fps (MPEG-1, as the dataset stores it), at 10 and 5 fps (H.264, as --downsampled does) and at
+    25 fps (a rate that does not divide 60)."""
     out = tmp_path_factory.mktemp("rates")
     return {60: write_video(sim, out / "v60.mpg"), 10: write_video(sim, out / "v10.mp4", fps=10),
-            5: write_video(sim, out / "v5.mp4", fps=5)}
+            5: write_video(sim, out / "v5.mp4", fps=5), 25: write_video(sim, out / "v25.mp4", fps=25)}
 
 
 @pytest.fixture(scope="module")
@@ -174,7 +175,7 @@ def _same_reading(low: Perception, high: Perception, sim: LiveSimulation, tolera
         assert float(np.mean(np.hypot(*(track[:n] - theirs[key][:n]).T))) < tolerance_px, key
 
 
-@pytest.mark.parametrize("fps", [10, 5])
+@pytest.mark.parametrize("fps", [10, 5, 25])
 def test_a_low_rate_video_reads_as_its_60_fps_original(fps: int, videos: dict[int, Path], read_60: Perception,
                                                         sim: LiveSimulation) -> None:
     low = perceive_video(videos[fps])
