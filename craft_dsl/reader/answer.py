@@ -54,7 +54,8 @@ class Answer:
     ``"Red"``), with the probability of that answer when a distribution was computed, or the reason there is none.
     ``fallback``: the answer is a guess of the program's answer type (:func:`fallback_answer`), not read from the
     video; ``error`` says why. ``warning``: why the video it was read from is not whole (its answers may be
-    wrong)."""
+    wrong). ``confidence``: the probability that the answer is right (:mod:`craft_dsl.reader.confidence`), from
+    ``confidence_inputs``, what the reading showed about it."""
 
     question: Question
     answer: str | None
@@ -63,6 +64,8 @@ class Answer:
     error: str | None = None
     fallback: bool = False
     warning: str | None = None
+    confidence: float | None = None
+    confidence_inputs: dict[str, Any] | None = None
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"video_index": self.question.video_index,
@@ -77,6 +80,10 @@ class Answer:
             out["fallback"] = True
         if self.warning is not None:
             out["warning"] = self.warning
+        if self.confidence is not None:
+            out["confidence"] = round(self.confidence, 6)
+        if self.confidence_inputs is not None:
+            out["confidence_inputs"] = self.confidence_inputs
         return out
 
 
@@ -270,10 +277,21 @@ def format_answer(value: Any) -> str | None:
 
 
 def answer_questions(scene: PerceivedScene, questions: Sequence[Question], distribution: bool = False,
-                     samples: int = 64, seed: int = 0) -> list[Answer]:
+                     samples: int = 64, seed: int = 0, confidence: bool = True) -> list[Answer]:
     """Answer each question over ``scene``: on its most likely world, or as the mode of its answer distribution
-    (with that answer's probability) when ``distribution`` is set."""
+    (with that answer's probability) when ``distribution`` is set; with ``confidence``, each answer carries its
+    confidence (:func:`craft_dsl.reader.confidence.with_confidence`)."""
     model = SceneModel(scene)
+    answers = _answer_questions(model, questions, distribution, samples, seed)
+    if not confidence:
+        return answers
+    from .confidence import with_confidence
+
+    return with_confidence(scene, questions, answers, samples=samples, seed=seed, base=model)
+
+
+def _answer_questions(model: SceneModel, questions: Sequence[Question], distribution: bool,
+                      samples: int, seed: int) -> list[Answer]:
     sim = model.simulation()
     programs: list[Program | None] = []
     errors: list[str | None] = []

@@ -1,6 +1,7 @@
 """``craft-dsl read``: answer CRAFT questions from the videos and the question texts alone (docs/reader.md).
 
-Predictions go to ``--out`` (``{"<video_index>_<question_index>": answer}``, what ``craft-dsl score`` reads). Each
+Predictions go to ``--out`` (``{"<video_index>_<question_index>": answer}``, what ``craft-dsl score`` reads: answers
+only, as published predictions files are); each answer's confidence goes to ``--details``. Each
 finished video's answers are first made durable in a journal beside it (:mod:`craft_dsl.reader.runs`); ``--out``
 and ``--details`` are written atomically from the journal once every video is done, the same bytes for any
 ``--workers`` and whether or not the run was interrupted and resumed. Progress and messages go to stderr. A video
@@ -47,9 +48,11 @@ def read_video(path: str, questions: list[Question], decoder: str = "auto", dist
                               "timings": {**perception.timings, "perception": perceived - t,
                                           "answering": done - perceived}}
     why = incomplete(path, perception.scene.video.frames)
-    if why is not None:  # read all the same, and every answer says so
+    if why is not None:  # read all the same, and every answer says so (its confidence at most a guess's)
+        from .confidence import rescore
+
         result["warning"] = f"the video is not whole: {why}"
-        result["answers"] = [replace(a, warning=result["warning"]) for a in answers]
+        result["answers"] = [rescore(replace(a, warning=result["warning"])) for a in answers]
     return result
 
 
@@ -195,8 +198,9 @@ def add_commands(sub: Any) -> None:
     add_workers_option(p, "worker processes (one video at a time each); the output is identical for any number")
     p.add_argument("--perceived", help="also write each video's PerceivedScene JSON (<id6>.json) into this folder "
                                        "(default: none)")
-    p.add_argument("--details", help="also write one JSON line per question (answer, probability, program, error, "
-                                     "fallback: the answer is a guess) to this file (default: none)")
+    p.add_argument("--details", help="also write one JSON line per question (answer, confidence: the probability "
+                                     "that it is right, probability, program, error, fallback: the answer is a "
+                                     "guess) to this file (default: none)")
     p.add_argument("--distribution", action="store_true",
                    help="answer with the mode of each question's answer distribution and give its probability")
     p.add_argument("--samples", type=int, default=64, help="Monte Carlo readings of an answer distribution")

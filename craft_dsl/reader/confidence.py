@@ -1,0 +1,354 @@
+"""The confidence of each reader answer: the probability that it is right, from what the reading itself shows.
+
+For each answer the reader records its *inputs* (:func:`confidence_inputs`), measured on the perceived scene alone:
+
+* the question: its paper sub-category (``D/N-V``, ``CF/O``, ...; :func:`craft_dsl.verify.categories.category_of`
+  of the template its text matches), its answer type and whether the answer is ``True`` / ``0``;
+* the perceived scene's uncertainty: the probability of the answer over every reading of the scene's attribute,
+  moving and event distributions (:func:`craft_dsl.perception.distribution.answer_distributions`), and the least
+  probable attribute value chosen for any object;
+* the reconstruction's agreement with the frames (``PerceivedScene.meta``): mean and largest distance in pixels of
+  the kept run from the tracks, re-anchored bodies, refits, the layout fit's RMS, whether a second physics engine
+  was tried and which one was kept (and the video's frame rate, recorded, not yet a feature: no labelled videos
+  below 60 fps were fitted);
+* how stable the answer is under the reader's other ways of executing the same scene: the answer again with the
+  other physics engine (pymunk / box2d), with the counterfactuals re-simulated from the fitted start instead of
+  replayed, and with the events derived from the tracks instead of the reconstructed run's. An answer near a
+  decision threshold (a marginal contact, an event near the end, a chaotic counterfactual) changes under them.
+
+:class:`ConfidenceModel` maps the inputs to a probability with a logistic model (Platt scaling) fitted on labelled
+read-details (``benchmarks/reader_calibration.py``); its parameters are ``confidence.json`` beside this module.
+A fallback answer (a guess of the answer type, ``Answer.fallback``) gets the rate at which such guesses were right
+in the fitting data, per answer type; an answer read from a video that is not whole (``Answer.warning``) gets at most
+that rate too (no labelled cut videos were fitted: a rule, not a fit).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..errors import CraftError
+from ..perception.schema import PerceivedScene
+from ..program import Program
+from ..question_parsing import match_question
+from ..verify.categories import CATEGORIES, category_of
+
+if TYPE_CHECKING:
+    from ..perception.world import SceneModel
+    from .answer import Answer, Question
+
+#: The fitted parameters shipped with the package.
+MODEL_PATH = Path(__file__).with_name("confidence.json")
+#: The ways of executing a scene whose answers are compared with the reader's (``ExecutionOptions`` fields).
+ALTERNATIVES: dict[str, dict[str, str]] = {"engine": {}, "resimulate": {"counterfactual": "resimulate"},
+                                           "derived": {"events": "derived"}}
+#: The other engine of each engine the reader keeps.
+OTHER_ENGINE = {"pymunk": "box2d", "box2d": "pymunk"}
+#: Answer types by the program's result type name.
+ANSWER_TYPES: tuple[str, ...] = ("bool", "count", "color", "shape", "size")
+#: The chance that a guess of each answer type is right (uniform over its values; counts: over 0-3): the prior of
+#: the fitted guess rates, and the rate of a type the fitting data had no guess of.
+CHANCE: dict[str, float] = {"bool": 1 / 2, "count": 1 / 4, "color": 1 / 8, "shape": 1 / 3, "size": 1 / 2, "*": 1 / 2}
+_TYPE_NAMES = {"BOOL": "bool", "INTEGER": "count", "COLOR": "color", "SHAPE": "shape", "SIZE": "size"}
+
+
+def answer_type(program: Program) -> str:
+    """``"bool"``, ``"count"``, ``"color"``, ``"shape"`` or ``"size"``: the type of the program's answer."""
+    return _TYPE_NAMES.get(program.type.name, "bool")
+
+
+def _category(text: str) -> str | None:
+    try:
+        return category_of(match_question(text).template_id)
+    except CraftError:
+        return None
+
+
+def _alternative_answers(scene: PerceivedScene, programs: Sequence[Program | None], base: SceneModel | None = None
+                         ) -> dict[str, list[str | None]]:
+    """Each program's answer under each of :data:`ALTERNATIVES` (``"!"`` where it raised; None for no program).
+    ``base``: the scene's model as answered, whose fitted physics the alternatives with the same engine reuse."""
+    from ..perception.world import ExecutionOptions, SceneModel
+    from .answer import format_answer
+
+    out: dict[str, list[str | None]] = {}
+    for name, fields in ALTERNATIVES.items():
+        options: dict[str, Any] = dict(fields)
+        if name == "engine":
+            other = OTHER_ENGINE.get(scene.physics or "pymunk")
+            if other is None:
+                continue
+            options["engine"] = other
+        answers: list[str | None] = []
+        try:
+            model = SceneModel(scene, ExecutionOptions(**options))
+            if base is not None and "engine" not in options and "physics" in base.__dict__:
+                model.__dict__["physics"] = base.physics  # the same fit (a cached_property's value): not redone
+            sim = model.simulation()
+        except (CraftError, ImportError):  # e.g. Box2D not installed: this alternative is not measured
+            continue
+        for program in programs:
+            if program is None:
+                answers.append(None)
+                continue
+            try:
+                answers.append(format_answer(program.run(sim)) or "!")
+            except CraftError:
+                answers.append("!")
+        out[name] = answers
+    return out
+
+
+def _scene_probabilities(scene: PerceivedScene | SceneModel, programs: Sequence[Program | None],
+                         answers: Sequence[str | None], samples: int, seed: int) -> list[float | None]:
+    """The probability of each answer over the readings of the scene (None where not computed)."""
+    from ..perception.distribution import answer_distributions
+
+    valid = [i for i, p in enumerate(programs) if p is not None and answers[i] is not None]
+    out: list[float | None] = [None] * len(programs)
+    try:
+        dists = answer_distributions(scene, [programs[i] for i in valid], samples=samples,  # type: ignore[misc]
+                                     seed=seed)
+    except CraftError:
+        return out
+    for i, d in zip(valid, dists):
+        out[i] = float(d.p(answers[i]))
+    return out
+
+
+def _least_attribute(scene: PerceivedScene) -> float:
+    """The smallest probability of the most likely colour, shape or size of any dynamic object (1 when certain)."""
+    least = 1.0
+    for obj in scene.objects:
+        if obj.dynamic is not None and obj.dynamic < 0.5:
+            continue
+        for dist in (obj.color, obj.shape, obj.size):
+            if dist:
+                least = min(least, max(dist.values()))
+    return least
+
+
+def confidence_inputs(scene: PerceivedScene, questions: Sequence[Question], answers: Sequence[Answer],
+                      samples: int = 64, seed: int = 0, base: SceneModel | None = None) -> list[dict[str, Any]]:
+    """The inputs of each answer's confidence (see the module docstring), as JSON-ready dicts; ``samples`` and
+    ``seed`` are those of the answer distributions (exact while the readings are few). ``base``: the model the
+    answers were computed on (``SceneModel(scene)``), whose physics and counterfactual runs are reused."""
+    from ..question_parsing import question_to_program
+
+    programs: list[Program | None] = []
+    for q, a in zip(questions, answers):
+        if a.answer is None or a.fallback:
+            programs.append(None)
+            continue
+        try:
+            programs.append(question_to_program(q.text))
+        except CraftError:
+            programs.append(None)
+    texts = [a.answer for a in answers]
+    alternatives = _alternative_answers(scene, programs, base)
+    scene_p = _scene_probabilities(base if base is not None else scene, programs, texts, samples, seed)
+    meta = scene.meta or {}
+    shared = {"mean_stray_px": float(meta.get("mean_stray_px", 0.0)),
+              "max_stray_px": float(meta.get("max_stray_px", 0.0)),
+              "anchors": int(meta.get("anchors", 0)), "refits": int(meta.get("refits", 0)),
+              "layout_rms": float(meta.get("layout_rms", 0.0)),
+              "engines_tried": len(meta.get("engines_tried", [])) or 1, "physics": scene.physics or "pymunk",
+              "least_attribute": round(_least_attribute(scene), 6), "video_fps": float(meta.get("video_fps", 60.0))}
+    out = []
+    for i, (q, a) in enumerate(zip(questions, answers)):
+        program = programs[i]
+        record: dict[str, Any] = {"category": _category(q.text)}
+        if program is not None:
+            record["type"] = answer_type(program)
+        else:
+            try:
+                record["type"] = answer_type(question_to_program(q.text))
+            except CraftError:
+                record["type"] = None
+        record["answer"] = a.answer
+        record.update(shared)
+        if program is not None:
+            p = scene_p[i]
+            record["scene_p"] = None if p is None else round(p, 6)
+            record["agree"] = {name: answers_[i] == a.answer for name, answers_ in alternatives.items()}
+        out.append(record)
+    return out
+
+
+# -- the model ---------------------------------------------------------------------------------------------------
+
+
+def _log1p(value: Any) -> float:
+    return math.log1p(max(float(value or 0.0), 0.0))
+
+
+def feature_vector(inputs: Mapping[str, Any]) -> dict[str, float]:
+    """The model's features of one answer's inputs (named; a missing input counts as its neutral value)."""
+    out: dict[str, float] = {}
+    category = inputs.get("category")
+    for c in CATEGORIES:
+        out[f"category={c}"] = float(category == c)
+    kind = inputs.get("type")
+    answer = inputs.get("answer")
+    out["bool_true"] = float(kind == "bool" and answer == "True")
+    out["count_zero"] = float(kind == "count" and answer == "0")
+    out["count_value"] = float(answer) if kind == "count" and isinstance(answer, str) and answer.isdigit() else 0.0
+    agree: Mapping[str, Any] = inputs.get("agree") or {}
+    for name in ALTERNATIVES:
+        out[f"differs:{name}"] = float(agree.get(name, True) is False)
+    p = inputs.get("scene_p")
+    out["scene_doubt"] = 1.0 - float(p) if p is not None else 0.0
+    out["attribute_doubt"] = 1.0 - float(inputs.get("least_attribute", 1.0))
+    out["log_mean_stray_px"] = _log1p(inputs.get("mean_stray_px"))
+    out["log_max_stray_px"] = _log1p(inputs.get("max_stray_px"))
+    out["log_anchors"] = _log1p(inputs.get("anchors"))
+    out["refits"] = float(inputs.get("refits", 0) or 0)
+    out["log_layout_rms"] = _log1p(inputs.get("layout_rms"))
+    out["second_engine_tried"] = float((inputs.get("engines_tried") or 1) > 1)
+    out["box2d_kept"] = float(inputs.get("physics") == "box2d")
+    return out
+
+
+@dataclass(frozen=True)
+class ConfidenceModel:
+    """A logistic model over :func:`feature_vector` (standardised by ``mean`` and ``scale``), and the probability
+    that a fallback guess is right per answer type (``fallback``; ``"*"``: any type)."""
+
+    features: tuple[str, ...]
+    weights: tuple[float, ...]
+    bias: float
+    mean: tuple[float, ...]
+    scale: tuple[float, ...]
+    fallback: dict[str, float] = field(default_factory=lambda: dict(CHANCE))
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def logit(self, inputs: Mapping[str, Any]) -> float:
+        named = feature_vector(inputs)
+        x = np.array([named.get(f, 0.0) for f in self.features])
+        z = (x - np.array(self.mean)) / np.array(self.scale)
+        return float(self.bias + z @ np.array(self.weights))
+
+    def guess_rate(self, kind: str | None) -> float:
+        """The probability that a fallback guess of answer type ``kind`` is right."""
+        key = kind or "*"
+        if key in self.fallback:
+            return float(self.fallback[key])
+        return CHANCE.get(key, float(self.fallback.get("*", CHANCE["*"])))
+
+    def confidence(self, inputs: Mapping[str, Any] | None, fallback: bool = False, warning: bool = False) -> float:
+        """The probability that the answer with these inputs is right, in [0, 1]."""
+        kind = (inputs or {}).get("type")
+        if (inputs or {}).get("answer", "") is None:  # unanswered: never right
+            return 0.0
+        if fallback or inputs is None or "agree" not in inputs:
+            return round(self.guess_rate(kind), 6)
+        z = self.logit(inputs)
+        p = 1.0 / (1.0 + math.exp(-z)) if z > -700 else 0.0
+        if warning:
+            p = min(p, self.guess_rate(kind))
+        return round(min(max(p, 0.0), 1.0), 6)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"model": "logistic", "features": list(self.features), "weights": [round(w, 6) for w in self.weights],
+                "bias": round(self.bias, 6), "mean": [round(m, 6) for m in self.mean],
+                "scale": [round(s, 6) for s in self.scale], "fallback": {k: round(v, 6) for k, v in
+                                                                        self.fallback.items()}, "meta": self.meta}
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> ConfidenceModel:
+        n = len(data["features"])
+        if not (len(data["weights"]) == len(data["mean"]) == len(data["scale"]) == n):
+            raise ValueError("confidence model: features, weights, mean and scale differ in length")
+        return cls(tuple(data["features"]), tuple(map(float, data["weights"])), float(data["bias"]),
+                   tuple(map(float, data["mean"])), tuple(map(float, data["scale"])),
+                   {str(k): float(v) for k, v in data.get("fallback", {"*": 0.5}).items()}, dict(data.get("meta", {})))
+
+    @classmethod
+    def load(cls, path: str | Path = MODEL_PATH) -> ConfidenceModel:
+        return cls.from_json(json.loads(Path(path).read_text(encoding="utf-8")))
+
+
+@lru_cache(maxsize=1)
+def default_model() -> ConfidenceModel:
+    """The model shipped with the package (:data:`MODEL_PATH`)."""
+    return ConfidenceModel.load(MODEL_PATH)
+
+
+def fit_logistic(x: np.ndarray, y: np.ndarray, l2: float = 1.0, iterations: int = 100) -> tuple[np.ndarray, float]:
+    """Weights and bias of the L2-regularised logistic regression of ``y`` (0/1) on ``x`` [n, d] (Newton's method;
+    the bias is not penalised)."""
+    n, d = x.shape
+    a = np.hstack([x, np.ones((n, 1))])
+    w = np.zeros(d + 1)
+    penalty = np.full(d + 1, l2)
+    penalty[-1] = 0.0
+    for _ in range(iterations):
+        p = 1.0 / (1.0 + np.exp(-np.clip(a @ w, -30, 30)))
+        grad = a.T @ (p - y) + penalty * w
+        hess = (a * (p * (1 - p))[:, None]).T @ a + np.diag(penalty) + 1e-9 * np.eye(d + 1)
+        step = np.linalg.solve(hess, grad)
+        w -= step
+        if float(np.max(np.abs(step))) < 1e-10:
+            break
+    return w[:-1], float(w[-1])
+
+
+def fit_model(inputs: Sequence[Mapping[str, Any]], correct: Sequence[bool], fallbacks: Sequence[bool],
+              l2: float = 1.0, meta: Mapping[str, Any] | None = None, drop: Sequence[str] = ()) -> ConfidenceModel:
+    """A :class:`ConfidenceModel` fitted on labelled answers: the logistic model on the answers that are not
+    fallbacks, the guess rates on those that are (two pseudo-answers per type, right at :data:`CHANCE`'s rate).
+    ``drop``: features left out (those whose name starts with one of them)."""
+    kept = [i for i, f in enumerate(fallbacks) if not f and "agree" in inputs[i]]
+    names = tuple(f for f in feature_vector(inputs[kept[0]]) if not f.startswith(tuple(drop)))
+    x = np.array([[feature_vector(inputs[i])[f] for f in names] for i in kept])
+    y = np.array([float(correct[i]) for i in kept])
+    mean = x.mean(axis=0)
+    scale = x.std(axis=0)
+    scale[scale < 1e-9] = 1.0
+    w, b = fit_logistic((x - mean) / scale, y, l2)
+    guesses: dict[str, list[int]] = {"*": [0, 0]}
+    for i, f in enumerate(fallbacks):
+        if f:
+            kind = str(inputs[i].get("type"))
+            for key in (kind, "*"):
+                guesses.setdefault(key, [0, 0])
+                guesses[key][0] += int(correct[i])
+                guesses[key][1] += 1
+    fallback = {k: (r + 2 * CHANCE.get(k, CHANCE["*"])) / (n + 2) for k, (r, n) in guesses.items()}
+    return ConfidenceModel(names, tuple(map(float, w)), b, tuple(map(float, mean)), tuple(map(float, scale)),
+                           fallback, dict(meta or {}))
+
+
+def with_confidence(scene: PerceivedScene, questions: Sequence[Question], answers: Sequence[Answer],
+                    model: ConfidenceModel | None = None, samples: int = 64, seed: int = 0,
+                    base: SceneModel | None = None) -> list[Answer]:
+    """``answers`` with their confidence and its inputs (:func:`confidence_inputs`)."""
+    from dataclasses import replace
+
+    model = model or default_model()
+    out = []
+    for a, inputs in zip(answers, confidence_inputs(scene, questions, answers, samples, seed, base)):
+        sure = model.confidence(inputs, a.fallback or a.answer is None, a.warning is not None)
+        out.append(replace(a, confidence=sure, confidence_inputs=inputs))
+    return out
+
+
+def rescore(answer: Answer, model: ConfidenceModel | None = None) -> Answer:
+    """``answer`` with its confidence computed again from its inputs (after its fallback or warning changed)."""
+    from dataclasses import replace
+
+    model = model or default_model()
+    return replace(answer, confidence=model.confidence(answer.confidence_inputs, answer.fallback or
+                                                       answer.answer is None, answer.warning is not None))
+
+
+__all__ = ["ALTERNATIVES", "CHANCE", "MODEL_PATH", "ConfidenceModel", "answer_type", "confidence_inputs",
+           "default_model", "feature_vector", "fit_logistic", "fit_model", "rescore", "with_confidence"]
