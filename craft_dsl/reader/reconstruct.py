@@ -25,8 +25,11 @@ by running the physics engine itself:
 Time: frame ``k`` of the video shows the state after ``rows[k]`` steps (``k + 1`` at 60 fps; every 6th step at
 10 fps, :func:`craft_dsl.reader.video.steps_shown`); the runs are compared with the observations at those steps.
 Windows and restarts are counted in frames, their constants being those of a 60-fps video (where a frame is a
-step), converted to frames of the video's rate with a floor of :data:`MIN_WINDOW_FRAMES` frames, so that a window
-covers about the same time at any rate.
+step), converted to frames of the video's rate so that a window covers about the same time at any rate, with floors
+in frames (:data:`START_MIN_FRAMES`, :data:`MIN_WINDOW_FRAMES`, :data:`MIN_REFIT_GROWTH`, :data:`MAX_WINDOW_FRAMES`)
+where a few frames would hold too little. Where frames are further apart than a step ("sparse"), the first start fit
+begins on the shortest window, and a run that strays within its window is refitted on a longer one (a body that
+enters after the first frames is not in them); at 60 fps neither applies.
 
 What comes out is a live simulation (:class:`~craft_dsl.physics.live.LiveSimulation`): events from the engine's
 contact log, counterfactuals by clean re-simulation, exactly as for the ground truth. Where no restart helps, the run
@@ -70,8 +73,11 @@ REFITS = 2
 SECOND_ENGINE_PX = 2.0
 #: A later engine's reconstruction replaces the earlier one only when its run is nearer the tracks by more than this.
 ENGINE_MARGIN_PX = 0.2
-#: Longest window (frames) of a refit: beyond it the engine runs cost more than they pin down.
+#: Longest window (frames) of a refit: beyond it the engine runs cost more than they pin down. At lower rates it may
+#: hold MAX_WINDOW_FRAMES frames whatever their steps (the frames of 150 steps at 10 fps, 25, do not pin the start
+#: down as far as 150 frames do).
 MAX_WINDOW = 150
+MAX_WINDOW_FRAMES = 40
 #: A refit's window grows by at least this many frames (at 60 fps), and at least MIN_REFIT_GROWTH frames at any
 #: rate: a body that enters the picture after the window is fitted once the window holds a few frames of it.
 REFIT_GROWTH = 10
@@ -470,7 +476,8 @@ def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Se
     observed = {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}
     fit = StartFit(model, static_values, attributes, observed, eng, rows=rows)
     start = _initial_units(fit)
-    if rows.size and rows[-1] > rows.size and window > START_MIN_FRAMES:
+    sparse = bool(rows.size and rows[-1] > rows.size)
+    if sparse and window > START_MIN_FRAMES:
         # frames further apart than a step: the start guess is further off and the window's few frames leave the
         # fit local minima; the shortest window first, its draws the guess of the whole window
         start = fit.fit(START_MIN_FRAMES, start)[0]
@@ -484,10 +491,10 @@ def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Se
         if not first or refits >= refits_allowed:
             break
         earliest = min(first.values())
-        if earliest <= window:
-            break
+        if earliest <= window and not sparse:
+            break  # (sparse frames: a body first seen after the window may stray within it; a longer window helps)
         window = min(max(window + frames_for(rows, REFIT_GROWTH, MIN_REFIT_GROWTH), earliest - 2),
-                     frames_for(rows, MAX_WINDOW, MIN_WINDOW_FRAMES), frames)
+                     frames_for(rows, MAX_WINDOW, MAX_WINDOW_FRAMES), frames)
         if measure is not None:
             for obj, s in zip(objects, slots):
                 if s >= 0:

@@ -27,6 +27,7 @@ re-encode it at 60 fps or less.
 from __future__ import annotations
 
 import math
+import numbers
 import os
 import re
 import subprocess
@@ -216,8 +217,7 @@ class FrameRate:
 def checked_rate(fps: float, what: str = "the frame rate") -> float:
     """``fps`` as the reader uses it: a positive number of at most 60, snapped to a whole number within 0.2 %;
     :class:`ReaderError` otherwise."""
-    if isinstance(fps, bool) or not isinstance(fps, int | float | Fraction) or not math.isfinite(float(fps)) \
-            or fps <= 0:
+    if isinstance(fps, bool) or not isinstance(fps, numbers.Real) or not math.isfinite(float(fps)) or fps <= 0:
         raise ReaderError(f"{what} must be a positive number of frames per second, got {fps!r}")
     value = float(fps)
     whole = round(value)
