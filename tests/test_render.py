@@ -186,6 +186,18 @@ def test_failed_write_leaves_nothing(tmp_path: Path) -> None:
     assert list(tmp_path.iterdir()) == []
 
 
+def test_mpeg1_refuses_a_rate_it_cannot_state(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    sim = synthetic_simulation(steps=12)
+    with pytest.raises(RenderError, match=r"cannot store 10 frames per second \(it allows 23.976, 24, 25, 29.97, "
+                                          r"30, 50, 59.94, 60\); write an .mp4"):
+        write_video(sim, tmp_path / "v.mpg", fps=10)
+    assert list(tmp_path.iterdir()) == []
+    assert len(_decode(write_video(sim, tmp_path / "v.mpg", fps=30))[1]) == 6  # a rate MPEG-1 has
+    out = tmp_path / "cli.mpg"
+    assert main(["render", "--scene", "1", "--steps", "30", "--fps", "10", "--out", str(out), "--quiet"]) == 2
+    assert "error:" in capsys.readouterr().err and not out.exists()
+
+
 def test_render_cli(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     png = tmp_path / "f.png"
     assert main(["render", "--scene", "3", "--seed", "7", "--steps", "30", "--frame", "30", "--out", str(png)]) == 0

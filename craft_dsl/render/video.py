@@ -98,6 +98,11 @@ def _frames_to_yuv420(frames: Iterable[np.ndarray], size: int, chunk: int = 60) 
         previous = rgb[-1]
 
 
+#: The frame rates an MPEG-1 stream can state (its frame-rate codes 1-8).
+MPEG1_RATES: frozenset[Fraction] = frozenset({Fraction(24000, 1001), Fraction(24), Fraction(25), Fraction(30000, 1001),
+                                              Fraction(30), Fraction(50), Fraction(60000, 1001), Fraction(60)})
+
+
 def write_yuv420(planes: Iterable[np.ndarray], path: str | os.PathLike[str], fps: float = SIM_FPS,
                  size: int = DEFAULT_SIZE, progress: Callable[[int], None] | None = None) -> Path:
     """Encode yuv420p frames (uint8 [size * 3 / 2, size]: Y, then U, then V) to ``path`` with PyAV, in this
@@ -115,6 +120,10 @@ def write_yuv420(planes: Iterable[np.ndarray], path: str | os.PathLike[str], fps
         raise RenderError(f"{target}: a GIF is written from RGB frames (write_frames), not from YUV planes")
     check_frame_size(size, size)
     rate = Fraction(fps).limit_denominator(10_000)
+    if ext == ".mpg" and rate not in MPEG1_RATES:
+        allowed = ", ".join(f"{float(r):.5g}" for r in sorted(MPEG1_RATES))
+        raise RenderError(f"{target}: MPEG-1 (.mpg) cannot store {fps:g} frames per second (it allows {allowed}); "
+                          "write an .mp4 (H.264, any rate) or a .gif instead")
     with atomic_path(target) as tmp:
         if ext == ".mpg":
             container = av.open(str(tmp), "w", format="mpeg1video")
