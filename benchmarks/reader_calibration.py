@@ -44,6 +44,7 @@ BINS = 10
 class Labelled:
     """One answer of a labelled set: its confidence inputs, whether it is a fallback, and whether it is right."""
 
+    source: str
     key: str
     inputs: dict[str, Any] | None
     fallback: bool
@@ -142,19 +143,56 @@ def load_labelled(spec: str) -> list[Labelled]:
     out = []
     for r in rows:
         t = truth[(r["video_index"], r["question_index"])]
-        out.append(Labelled(f"{r['video_index']}_{r['question_index']}", r["confidence_inputs"],
+        out.append(Labelled(spec, f"{r['video_index']}_{r['question_index']}", r["confidence_inputs"],
                             bool(r.get("fallback")), r.get("warning") is not None,
                             r["answer"] is not None and answers_agree(r["answer"], t["answer"]), t["template_id"]))
     return out
 
 
-def report(name: str, labelled: list[Labelled], model: ConfidenceModel) -> dict[str, Any]:
-    """Print the reliability diagram, ECE and risk-coverage table of ``model`` on ``labelled``; return them."""
-    conf = [model.confidence(x.inputs, x.fallback, x.warning) for x in labelled]
+def ece_interval(confidence: Sequence[float], correct: Sequence[bool], resamples: int = 1000, seed: int = 0
+                 ) -> tuple[float, float]:
+    """The 5th and 95th percentiles of the ECE over ``resamples`` bootstrap resamples of the answers (drawn from
+    ``numpy.random.default_rng(seed)``)."""
+    rng = np.random.default_rng(seed)
+    c = np.asarray(confidence, dtype=float)
+    y = np.asarray(correct, dtype=bool)
+    values = []
+    for _ in range(resamples):
+        pick = rng.integers(0, len(c), len(c))
+        values.append(ece(c[pick].tolist(), y[pick].tolist()))
+    low, high = np.percentile(values, [5, 95])
+    return float(low), float(high)
+
+
+def cross_validated(labelled: list[Labelled], folds: int, l2: float, drop: Sequence[str], seed: int = 0
+                    ) -> list[float]:
+    """Each answer's confidence from a model fitted on the other folds (``folds`` folds of whole videos of each
+    set, assigned by ``numpy.random.default_rng(seed)``)."""
+    videos = sorted({(x.source, x.key.split("_")[0]) for x in labelled})
+    fold_of = dict(zip(videos, np.random.default_rng(seed).integers(0, folds, len(videos)).tolist()))
+    fold = [fold_of[(x.source, x.key.split("_")[0])] for x in labelled]
+    out = [0.0] * len(labelled)
+    for k in range(folds):
+        train = [x for x, f in zip(labelled, fold) if f != k]
+        model = fit_model([x.inputs or {} for x in train], [x.correct for x in train], [x.fallback for x in train],
+                          l2, drop=drop)
+        for i, (x, f) in enumerate(zip(labelled, fold)):
+            if f == k:
+                out[i] = model.confidence(x.inputs, x.fallback, x.warning)
+    return out
+
+
+def report(name: str, labelled: list[Labelled], model: ConfidenceModel,
+           confidences: Sequence[float] | None = None) -> dict[str, Any]:
+    """Print the reliability diagram, ECE (with its bootstrap interval) and risk-coverage table of ``model`` on
+    ``labelled`` (or of the ``confidences`` given); return them."""
+    conf = list(confidences) if confidences is not None else \
+        [model.confidence(x.inputs, x.fallback, x.warning) for x in labelled]
     ok = [x.correct for x in labelled]
     e = ece(conf, ok)
+    low, high = ece_interval(conf, ok)
     print(f"### {name}: {len(ok)} answers, accuracy {100 * np.mean(ok):.2f} %, mean confidence "
-          f"{100 * np.mean(conf):.2f} %, ECE {e:.4f}\n")
+          f"{100 * np.mean(conf):.2f} %, ECE {e:.4f} (90 % bootstrap interval {low:.4f}-{high:.4f})\n")
     print("| confidence | answers | mean confidence | accuracy |\n|---|---|---|---|")
     bins = reliability(conf, ok)
     for lo, hi, k, c, acc in bins:
@@ -164,7 +202,8 @@ def report(name: str, labelled: list[Labelled], model: ConfidenceModel) -> dict[
     for cov, k, acc in table:
         print(f"| {100 * cov:.0f} % | {k} | {100 * acc:.2f} % |")
     print()
-    return {"answers": len(ok), "accuracy": float(np.mean(ok)), "ece": e, "bins": bins, "risk_coverage": table}
+    return {"answers": len(ok), "accuracy": float(np.mean(ok)), "ece": e, "ece_interval": (low, high), "bins": bins,
+            "risk_coverage": table}
 
 
 def read_dataset(root: Path, out: Path, workers: int, every: int = 1) -> None:
@@ -199,6 +238,8 @@ def main(argv: Sequence[str] | None = None) -> None:
                                                                "by video on the fit set)")
     parser.add_argument("--drop", nargs="*", default=[], metavar="FEATURE",
                         help="features to leave out of the fit (name prefixes, e.g. differs:resimulate category=)")
+    parser.add_argument("--cv", type=int, default=0, help="also report K-fold cross-validation by video on the fit "
+                                                          "set (default: none)")
     parser.add_argument("--write", action="store_true", help=f"write the fitted model to {MODEL_PATH}")
     args = parser.parse_args(argv)
     if args.read:
@@ -218,6 +259,9 @@ def main(argv: Sequence[str] | None = None) -> None:
         print(f"\nbias {model.bias:+.3f}; fallback guesses right: "
               + ", ".join(f"{k} {v:.3f}" for k, v in sorted(model.fallback.items())) + "\n")
         report("fit set (" + ", ".join(args.fit) + ")", fit, model)
+        if args.cv:
+            report(f"fit set, {args.cv}-fold cross-validation by video", fit, model,
+                   cross_validated(fit, args.cv, args.l2, args.drop))
         if args.write:
             MODEL_PATH.write_text(json.dumps(model.to_json(), indent=1) + "\n", encoding="utf-8")
             print(f"wrote {MODEL_PATH}", file=sys.stderr)

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from benchmarks.reader_calibration import ece, reliability, risk_coverage
+from benchmarks.reader_calibration import ece, ece_interval, reliability, risk_coverage
 from craft_dsl.cli import main
 from craft_dsl.perception import export_perceived
 from craft_dsl.physics import simulate
@@ -97,6 +97,9 @@ def test_ece_reliability_and_risk_coverage_on_known_values() -> None:
     assert ece(conf, ok) == pytest.approx((4 * 0.15 + 2 * 0.4) / 6)
     assert ece([1.0, 0.0], [True, False]) == 0.0  # 1.0 falls in the last bin
     assert ece([], []) == 0.0
+    assert ece_interval([1.0] * 20, [True] * 20, resamples=50) == (0.0, 0.0)
+    low, high = ece_interval(conf, ok, resamples=200, seed=3)
+    assert 0.0 <= low <= high <= 1.0 and ece_interval(conf, ok, resamples=200, seed=3) == (low, high)
     table = risk_coverage(conf, ok, (1.0, 0.5))
     assert table == [(1.0, 6, pytest.approx(4 / 6)), (0.5, 3, 1.0)]
 
