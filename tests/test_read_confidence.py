@@ -148,3 +148,18 @@ def test_details_carry_the_confidence_and_predictions_stay_answers(users_dataset
         assert predictions[f"{line['video_index']}_{line['question_index']}"] == line["answer"]
         assert isinstance(line["answer"], str) and 0.0 <= line["confidence"] <= 1.0
         assert line["confidence_inputs"]["category"]
+
+
+def test_a_measurement_that_fails_leaves_the_answers_standing(monkeypatch: pytest.MonkeyPatch) -> None:
+    import craft_dsl.perception.distribution as distribution
+    from craft_dsl.reader import confidence
+
+    def broken(*args: object, **kwargs: object) -> None:
+        raise RuntimeError("no distribution today")
+
+    monkeypatch.setattr(distribution, "answer_distributions", broken)
+    monkeypatch.setitem(confidence.ALTERNATIVES, "bogus", {"events": "nonsense"})  # refused by ExecutionOptions
+    scene = export_perceived(simulate(1, seed=0, steps=200))
+    [a] = answer_questions(scene, [Question(0, 0, "How many objects fall to the ground?")])
+    assert a.answer is not None and a.confidence is not None and 0.0 <= a.confidence <= 1.0
+    assert a.confidence_inputs["scene_p"] is None and "bogus" not in a.confidence_inputs["agree"]
