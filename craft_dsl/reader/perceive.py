@@ -31,7 +31,7 @@ from ..world import WorldSpec
 from .detect import blobs, grid_labels, grid_rims
 from .layout import StaticFit, fit_layout
 from .layout_model import layout_model
-from .reconstruct import Reconstruction, fit_frames, reconstruct_best, start_frames
+from .reconstruct import Reconstruction, fit_frames, reader_engines, reconstruct_best, start_frames
 from .track import (
     TrackedObject,
     classify_shape,
@@ -81,7 +81,8 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
                     frame_steps: Sequence[int] | np.ndarray | None = None,
                     rate: FrameRate | None = None) -> Perception:
     """Perceive decoded frames uint8 [T, H, W, 3] (``scene``: skip the identification). ``engines``: the physics
-    engines to reconstruct the motion with (default :func:`~craft_dsl.reader.reconstruct.reader_engines`); the
+    engines to reconstruct the motion with (default :func:`~craft_dsl.reader.reconstruct.reader_engines`: Box2D
+    first where the statics' edges are aliased, as the original CRAFT renderer draws them); the
     reconstruction that follows the frames best is kept (:func:`~craft_dsl.reader.reconstruct.reconstruct_best`).
     ``fps`` (default 60) or ``frame_steps`` (the step each frame shows, for any other timing) say when the frames
     were taken; ``rate`` only records where ``fps`` came from."""
@@ -108,6 +109,8 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
         measure_frames(obj, frames, background, which)
         refine_frames(obj, frames, background, which, shape, size)
 
+    if engines is None:  # the original CRAFT renderer's look: its physics (Box2D) first
+        engines = reader_engines(layout.aliased)
     rec = reconstruct_best(model, layout.values, objects, len(frames), steps=int(rows[-1]), engines=engines,
                            measure=measure, rows=rows)
     times["reconstruct"] = time.perf_counter() - t

@@ -47,15 +47,18 @@ from scipy.optimize import linear_sum_assignment
 
 from ..physics.engine import ContactLog, PhysicsEngine, RawRun, splice
 from ..physics.live import LiveSimulation, get_engine
-from ..render.raster import world_to_pixel
+from ..render.raster import SIM_FPS, Y_MAX, world_to_pixel
 from ..scenes import Choice, Uniform
 from ..simulation import Trajectory
-from ..world import WorldSpec
+from ..world import GRAVITY, WorldSpec
 from .layout_model import Attributes, LayoutModel
 from .track import EYE_BIAS, TrackedObject
 
 #: Frames of the first start fit (at 60 fps: steps; see the module docstring for other rates).
 START_FRAMES = 40
+#: A body first seen later (fallen in from above the picture) extends the first fit to this many frames (at 60 fps)
+#: after its first sighting: without them its start height is not seen at all.
+ENTRY_FRAMES = 20
 #: A fit or restart window holds at least this many frames (at a low rate the steps of a 60-fps window hold few);
 #: the first start fit at least START_MIN_FRAMES (a longer first window holds contacts its start guess cannot meet).
 MIN_WINDOW_FRAMES = 8
@@ -155,8 +158,18 @@ def _slot_region(model: LayoutModel, values: Mapping[str, float], slot: int) -> 
     return lo, hi
 
 
-def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Sequence[TrackedObject]) -> list[int]:
-    """The slot of each object (see the module docstring); objects beyond the slots get -1."""
+def _slot_velocity(model: LayoutModel, values: Mapping[str, float], slot: int) -> np.ndarray:
+    """A slot's start velocity (m/s) given the draws (zero where the layout gives none)."""
+    fields = model.evaluate(values)
+    return np.array([float(fields.get(f"dynamic[{slot}].velocity[{axis}]", 0.0)) for axis in range(2)])
+
+
+def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Sequence[TrackedObject],
+                 rows: np.ndarray | Sequence[int] | None = None) -> list[int]:
+    """The slot of each object (see the module docstring); objects beyond the slots get -1. ``rows``: the step
+    each frame shows (default ``k + 1``). A body first seen after the first frame, from a slot that starts above
+    the picture, is compared with where that slot's body has fallen to by then (the slots' heights order the
+    entries); one hidden at first, by its x alone."""
     n_slots = len(model.layout.dynamic)
     cost = np.zeros((len(objects), n_slots))
     from ..perception.coords import to_metres
@@ -168,7 +181,11 @@ def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Seque
         pos = np.array(to_metres(b.x, b.y, 256), dtype=float) if b is not None else np.array([0.0, 60.0])
         for s in range(n_slots):
             lo, hi = _slot_region(model, values, s)
-            if first > 0:  # entered later (from above the picture, or hidden at first): only x is comparable
+            if first > 0 and lo[1] > Y_MAX:  # fell in from above the picture: fallen from its start since
+                t = (int(rows[first]) if rows is not None else first + 1) / SIM_FPS
+                fall = np.array([0.0, _slot_velocity(model, values, s)[1] * t + 0.5 * GRAVITY[1] * t * t])
+                gap = np.maximum(np.maximum(lo + fall - pos, 0.0), pos - hi - fall)
+            elif first > 0:  # hidden at first: only x is comparable
                 gap = np.array([max(lo[0] - pos[0], 0.0, pos[0] - hi[0]), 0.0])
             else:
                 gap = np.maximum(np.maximum(lo - pos, 0.0), pos - hi)
@@ -344,6 +361,17 @@ def start_frames(rows: np.ndarray) -> int:
     return min(len(rows), frames_for(rows, START_FRAMES, START_MIN_FRAMES))
 
 
+def first_window(observed: Mapping[int, np.ndarray], rows: np.ndarray) -> int:
+    """Frames of the first start fit: :func:`start_frames`, longer when a body is first seen later: then until
+    :data:`ENTRY_FRAMES` frames' worth of steps after its first sighting (at most the longest refit window)."""
+    window = start_frames(rows)
+    for obs in observed.values():
+        seen = np.nonzero(~np.isnan(obs[:, 0]))[0]
+        if seen.size and seen[0] > 0:
+            window = max(window, int(seen[0]) + frames_for(rows, ENTRY_FRAMES, MIN_REFIT_GROWTH))
+    return min(window, frames_for(rows, MAX_WINDOW, MAX_WINDOW_FRAMES), len(rows))
+
+
 def fit_frames(window: int) -> list[int]:
     """The frames of a fit window that are measured exactly (see :data:`DENSE_FRAMES`)."""
     dense = list(range(min(DENSE_FRAMES, window)))
@@ -377,7 +405,15 @@ def _initial_units(fit: StartFit) -> np.ndarray:
         if obs is None:
             continue
         seen = np.nonzero(~np.isnan(obs[:, 0]))[0]
-        if seen.size == 0 or (seen[0] > 0 and axis == 1):
+        if seen.size == 0:
+            continue
+        if seen[0] > 0 and axis == 1:
+            # first seen later, fallen in from above the picture: dropped from rest, its height at the start
+            x, y = to_metres(obs[seen[0], 0], obs[seen[0], 1], fit.size)
+            t = float(fit.rows[seen[0]]) / SIM_FPS
+            lo, hi = bounds[path]
+            value = float(y - 0.5 * GRAVITY[1] * t * t)
+            units[j] = 0.5 if hi == lo else float(np.clip((value - lo) / (hi - lo), 0.0, 1.0))
             continue
         px, py = obs[seen[0], 0], obs[seen[0], 1]
         if seen[0] == 0 and fit.rows[0] > 1 and seen.size > 1 and seen[1] <= 2:
@@ -475,6 +511,14 @@ def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Se
                 measure(obj, fit_frames(window), attributes[s][0], attributes[s][2])
     observed = {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}
     fit = StartFit(model, static_values, attributes, observed, eng, rows=rows)
+    longer = first_window(observed, rows)
+    if longer > window:  # a body first seen later: the first fit sees it for a while
+        window = longer
+        if measure is not None:
+            for obj, s in zip(objects, slots):
+                if s >= 0:
+                    measure(obj, fit_frames(window), attributes[s][0], attributes[s][2])
+                    fit.observed[s] = _observations(obj, frames)
     start = _initial_units(fit)
     sparse = bool(rows.size and rows[-1] > rows.size)
     if sparse and window > START_MIN_FRAMES:
@@ -648,7 +692,7 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
     shown = _frame_rows(rows, frames)
     if shown.size != frames or (frames and (shown[0] < 1 or shown[-1] > steps or np.any(np.diff(shown) <= 0))):
         raise ValueError(f"rows must be {frames} increasing steps within 1..{steps}")
-    slots = assign_slots(model, static_values, objects)
+    slots = assign_slots(model, static_values, objects, shown)
     attributes = slot_attributes(model, objects, slots)
     best = _attempt(model, static_values, objects, slots, attributes, frames, steps, eng, measure, REFITS, shown)
     if best.first:
@@ -719,13 +763,16 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
 READER_ENGINES: tuple[str, ...] = ("pymunk", "box2d")
 
 
-def reader_engines() -> tuple[str, ...]:
-    """:data:`READER_ENGINES` that are installed (Box2D is the ``box2d`` extra)."""
+def reader_engines(aliased: bool = False) -> tuple[str, ...]:
+    """:data:`READER_ENGINES` that are installed (Box2D is the ``box2d`` extra), in the order they are tried: Box2D
+    first for a video whose statics have aliased edges (``aliased``: the original CRAFT renderer's look, measured by
+    :func:`~craft_dsl.reader.layout.edge_share`), since the original simulator is Box2D and pymunk, which follows
+    its videos about as closely, answers less like it."""
     try:
         import Box2D  # noqa: F401
     except ImportError:
         return READER_ENGINES[:1]
-    return READER_ENGINES
+    return tuple(reversed(READER_ENGINES)) if aliased else READER_ENGINES
 
 
 def follows_closely(rec: Reconstruction) -> bool:
