@@ -206,17 +206,17 @@ def report(name: str, labelled: list[Labelled], model: ConfidenceModel,
             "risk_coverage": table}
 
 
-def read_dataset(root: Path, out: Path, workers: int, every: int = 1) -> None:
-    """``craft-dsl read`` on every question (texts only) of the videos of a dataset whose index is a multiple of
-    ``every`` into ``out``: details.jsonl, perceived/ (videos are numbered scene by scene: every third one still
-    covers every scene)."""
+def read_dataset(root: Path, out: Path, workers: int, every: int = 1, offset: int = 0) -> None:
+    """``craft-dsl read`` on every question (texts only) of the videos of a dataset whose index is ``offset``
+    modulo ``every`` into ``out``: details.jsonl, perceived/ (videos are numbered scene by scene: every third one
+    still covers every scene)."""
     from craft_dsl.cli import main as cli_main
 
     out.mkdir(parents=True, exist_ok=True)
     raw = json.loads((root / "dataset_minimal.json").read_text(encoding="utf-8"))
     questions = out / "questions.json"
     questions.write_text(json.dumps([{k: r[k] for k in ("video_index", "question_index", "question")} for r in raw
-                                     if r["video_index"] % every == 0]))
+                                     if r["video_index"] % every == offset]))
     cli_main(["read", "--videos", str(root / "videos"), "--questions", str(questions), "--out",
               str(out / "preds.json"), "--details", str(out / "details.jsonl"), "--perceived", str(out / "perceived"),
               "--workers", str(workers), "--quiet"])
@@ -227,8 +227,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--read", help="read every question of this dataset first (into --out)")
     parser.add_argument("--out", help="folder of --read's details.jsonl, preds.json and perceived/")
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--every", type=int, default=1, help="with --read: only the videos whose index is a multiple "
-                                                             "of this")
+    parser.add_argument("--every", type=int, default=1, help="with --read: only the videos whose index is --offset "
+                                                             "modulo this")
+    parser.add_argument("--offset", type=int, default=0, help="with --every: the remainder of the videos read")
     parser.add_argument("--fit", nargs="*", default=[], metavar="DATASET:DETAILS[:PERCEIVED]",
                         help="labelled sets to fit the model on")
     parser.add_argument("--eval", nargs="*", default=[], metavar="DATASET:DETAILS[:PERCEIVED]",
@@ -245,7 +246,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     if args.read:
         if not args.out:
             parser.error("--read needs --out")
-        read_dataset(Path(args.read), Path(args.out), args.workers, args.every)
+        read_dataset(Path(args.read), Path(args.out), args.workers, args.every, args.offset)
         return
     fit = [x for spec in args.fit for x in load_labelled(spec)]
     model = default_model()
