@@ -38,6 +38,7 @@ from .track import (
     measure_frames,
     merge_colour_splits,
     refine_frames,
+    relink_merges,
     select_objects,
     track,
     verify_shape,
@@ -98,6 +99,7 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     found = blobs(grid_labels(frames, background), grid_rims(background))
     objects = select_objects(merge_colour_splits(track(found, len(frames), steps=rows), rows),
                              len(model.layout.dynamic), frames)
+    relink_merges(objects, frames, background)
     for obj in objects:
         classify_shape(obj, frames, background)
         measure_frames(obj, frames, background, fit_frames(start_frames(rows)))

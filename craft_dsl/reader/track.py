@@ -7,7 +7,9 @@ seen in at least :data:`MIN_FRAMES` frames (bodies of one colour touch, hide in 
 picture for a while, but not for the whole video). In each frame, blobs are given to the colour's bodies by a
 nearest-neighbour assignment from their last positions, with the blob's area as a second cue; a blob covering two
 bodies of one colour (its area about their sum) is given to neither, and that frame is left out for both: the
-physics fills it in. In a video of fewer than 60 frames per second (``steps``: the step each frame shows) a body
+physics fills it in. Two such bodies that bounce off each other come out of the merge on the wrong tracks by
+position alone: :func:`relink_merges` keeps or swaps the tracks' parts after each merge, whichever lets each track
+be one (shape, size). In a video of fewer than 60 frames per second (``steps``: the step each frame shows) a body
 moves up to 12 times further between frames: its last position is carried forward by its velocity over the steps
 between (from its last two sightings) before the assignment; at 60 fps the last position is used as it is.
 
@@ -254,6 +256,84 @@ def merge_colour_splits(objects: list[TrackedObject], steps: Sequence[int] | np.
     return out
 
 
+#: Relinking across a merge: frames of each side measured, the fewest complete ones that count, and how much more
+#: likely (log) the swapped linking must be.
+RELINK_SAMPLES = 12
+RELINK_MIN_FRAMES = 4
+RELINK_MARGIN = 10.0
+#: Frames in a row where two tracks are both seen that part one merge from the next.
+MIN_APART = 5
+
+
+def _merges(a: TrackedObject, b: TrackedObject) -> list[tuple[tuple[int, int], tuple[int, int], tuple[int, int]]]:
+    """Where two tracks merged: (frames before, (first frame lost, first frame found again), frames after) for
+    each stretch between two runs of at least :data:`MIN_APART` frames where both are seen, in which both are lost
+    in some frame (short partings inside a merge belong to it)."""
+    n = len(a.blobs)
+    runs: list[tuple[int, int]] = []
+    k = 0
+    while k < n:
+        if a.blobs[k] is None or b.blobs[k] is None:
+            k += 1
+            continue
+        start = k
+        while k < n and a.blobs[k] is not None and b.blobs[k] is not None:
+            k += 1
+        if k - start >= MIN_APART:
+            runs.append((start, k))
+    gaps = [(e0, s1) for (_s0, e0), (s1, _e1) in zip(runs, runs[1:])
+            if any(a.blobs[g] is None and b.blobs[g] is None for g in range(e0, s1))]
+    starts = [0] + [found for _lost, found in gaps]
+    ends = [lost for lost, _found in gaps] + [n]
+    return [((starts[i], lost), (lost, found), (found, ends[i + 1])) for i, (lost, found) in enumerate(gaps)]
+
+
+def _side(obj: TrackedObject, start: int, stop: int) -> list[int]:
+    """Frames in [start, stop) where ``obj`` is seen whole (not cut by the border)."""
+    return [k for k in range(start, stop) if (b := obj.blobs[k]) is not None and not b.touches_edge]
+
+
+def _side_log_likelihoods(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, which: list[int]
+                          ) -> np.ndarray | None:
+    """Log-likelihood of each (shape, size) (in :data:`SHAPE_FEATURES` order) from up to :data:`RELINK_SAMPLES` of
+    ``which``; None with fewer than :data:`RELINK_MIN_FRAMES` complete measurements."""
+    pick = [which[int(i)] for i in np.unique(np.linspace(0, len(which) - 1, min(RELINK_SAMPLES, len(which))).round())]
+    measure_frames(obj, frames, background, pick)
+    features = _features(obj, pick)
+    if len(features) < RELINK_MIN_FRAMES:
+        return None
+    return np.array(list(_log_likelihoods(features).values()))
+
+
+def relink_merges(objects: list[TrackedObject], frames: np.ndarray, background: np.ndarray) -> int:
+    """Where two bodies of one colour touch (their blob is one, left to neither) and part again, the tracks are
+    linked by position, and two bodies that bounce off each other come out swapped. For each such merge (both
+    tracks lost in the same frame and found again), keep or swap the tracks' parts after it, whichever lets each
+    track be one (shape, size) (the log-likelihoods of the parts' shape features, by :data:`RELINK_MARGIN`). Returns
+    the number of swaps; measurements made are dropped (the blobs they belong to may have changed tracks)."""
+    swaps = 0
+    by_colour: dict[int, list[TrackedObject]] = defaultdict(list)
+    for obj in objects:
+        by_colour[obj.color].append(obj)
+    for tracks in by_colour.values():
+        for i, a in enumerate(tracks):
+            for b in tracks[i + 1:]:
+                for before, (_lost, found), after in _merges(a, b):
+                    sides = [_side_log_likelihoods(o, frames, background, _side(o, lo, hi))
+                             for o, (lo, hi) in ((a, before), (a, after), (b, before), (b, after))]
+                    a1, a2, b1, b2 = sides
+                    if a1 is None or a2 is None or b1 is None or b2 is None:
+                        continue
+                    keep = float(np.max(a1 + a2) + np.max(b1 + b2))
+                    swap = float(np.max(a1 + b2) + np.max(b1 + a2))
+                    if swap > keep + RELINK_MARGIN:
+                        a.blobs[found:], b.blobs[found:] = b.blobs[found:], a.blobs[found:]
+                        swaps += 1
+    for obj in objects:
+        obj.measurements.clear()
+    return swaps
+
+
 #: A track whose median blob is at least this large (pixels) is a large body: its centre holds the eyes, so its core
 #: colour says nothing about its purity.
 LARGE_BLOB_AREA = 100.0
@@ -413,6 +493,24 @@ def verify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray,
     obj.shape_size = {key: w / total for key, w in weights.items()}
 
 
+def _features(obj: TrackedObject, pick: Sequence[int], complete: bool = True) -> np.ndarray:
+    """[n, 3] shape features (see the module docstring) of the measured frames of ``pick`` (complete ones only)."""
+    chosen = set(pick)
+    return np.array([(m.area, m.radius / math.sqrt(m.area), (m.mxx + m.myy) / m.area)
+                     for k, m in obj.measurements.items() if k in chosen and (m.complete or not complete)])
+
+
+def _log_likelihoods(features: np.ndarray) -> dict[tuple[str, str], float]:
+    """Per (shape, size), the log-likelihood of the features of every frame (Student-t, 3 degrees of freedom, per
+    feature and frame)."""
+    out = {}
+    for key, (centre, spread) in SHAPE_FEATURES.items():
+        floor = np.array([0.06 * centre[0], 0.03, 0.006])
+        z = (features - np.array(centre)) / np.maximum(np.array(spread) * SPREAD_FACTOR, floor)
+        out[key] = float(np.sum(-2.0 * np.log1p(z * z / 3.0)))
+    return out
+
+
 def classify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, samples: int = 16) -> None:
     """Probabilities of each (shape, size) from up to ``samples`` complete frames (see the module docstring)."""
     seen = [k for k in obj.seen() if not obj.blobs[k].touches_edge]  # type: ignore[union-attr]
@@ -420,20 +518,13 @@ def classify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarra
         seen = obj.seen()
     pick = [seen[int(i)] for i in np.unique(np.linspace(0, len(seen) - 1, min(samples, len(seen))).round())]
     measure_frames(obj, frames, background, pick)
-    features = np.array([(m.area, m.radius / math.sqrt(m.area), (m.mxx + m.myy) / m.area)
-                         for k, m in obj.measurements.items() if k in pick and m.complete])
+    features = _features(obj, pick)
     if features.size == 0:
-        features = np.array([(m.area, m.radius / math.sqrt(m.area), (m.mxx + m.myy) / m.area)
-                             for k, m in obj.measurements.items() if k in pick])
+        features = _features(obj, pick, complete=False)
     if features.size == 0:
         obj.shape_size = {(s, z): 1.0 / 6 for s in SHAPES for z in SIZES}
         return
-    log_like = {}
-    for key, (centre, spread) in SHAPE_FEATURES.items():
-        floor = np.array([0.06 * centre[0], 0.03, 0.006])
-        z = (features - np.array(centre)) / np.maximum(np.array(spread) * SPREAD_FACTOR, floor)
-        # Student-t (3 degrees of freedom) per feature and frame
-        log_like[key] = float(np.sum(-2.0 * np.log1p(z * z / 3.0)))
+    log_like = _log_likelihoods(features)
     top = max(log_like.values())
     weights = {k: math.exp(v - top) for k, v in log_like.items()}
     total = sum(weights.values())

@@ -1,0 +1,68 @@
+"""Tracks of two bodies of one colour that touch and part: relinked so that each is one shape."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from craft_dsl.reader.detect import blobs, grid_labels, grid_rims
+from craft_dsl.reader.track import TrackedObject, classify_shape, relink_merges, track
+from craft_dsl.render import frames as render_frames
+from craft_dsl.render.raster import static_layer
+from craft_dsl.world import WorldSpec, assign_uids, make_dynamic, make_static
+from tests.synthetic_scene import simulation_from_rows
+
+
+@pytest.fixture(scope="module")
+def passing_bodies() -> tuple[np.ndarray, np.ndarray, list[TrackedObject]]:
+    """A green circle and a green triangle that slide past each other, touching for a while (one blob): frames,
+    background, and their tracks."""
+    bodies = [make_static(0, "wall_l"), make_static(0, "wall_r"), make_static(0, "ground"),
+              make_static(0, "basket", (12.0, -1.2)),
+              make_dynamic(0, "circle", "green", "large", (0.0, 0.0)),
+              make_dynamic(0, "triangle", "green", "large", (0.0, 0.0))]
+    world = WorldSpec(bodies=assign_uids(bodies), scene_id=None, seed=0)
+    steps = 120
+    k = np.arange(steps + 1)
+    pos = np.zeros((steps + 1, len(bodies), 2))
+    for i, b in enumerate(world.bodies):
+        pos[:, i] = b.position
+        if b.shape == "circle":
+            pos[:, i] = np.stack([-12 + 0.2 * k, np.full(k.size, 24.0)], axis=1)
+        elif b.shape == "triangle":
+            pos[:, i] = np.stack([12 - 0.2 * k, np.full(k.size, 20.5)], axis=1)
+    frames = render_frames(simulation_from_rows(world, pos, np.zeros((steps + 1, len(bodies)))))
+    background = static_layer(WorldSpec(bodies=tuple(b for b in world.bodies if not b.dynamic)), 256)
+    return frames, background, track(blobs(grid_labels(frames, background), grid_rims(background)), len(frames))
+
+
+def _shapes(objects: list[TrackedObject], frames: np.ndarray, background: np.ndarray) -> list[str]:
+    for obj in objects:
+        classify_shape(obj, frames, background)
+    return [max(obj.shape_size, key=lambda key: obj.shape_size[key])[0] for obj in objects]
+
+
+def _copies(objects: list[TrackedObject]) -> list[TrackedObject]:
+    return [TrackedObject(o.color, list(o.blobs)) for o in objects]
+
+
+def test_tracks_swapped_at_a_merge_are_swapped_back(passing_bodies: tuple[np.ndarray, np.ndarray,
+                                                                           list[TrackedObject]]) -> None:
+    frames, background, tracked = passing_bodies
+    a, b = objects = _copies(tracked)
+    both_lost = [k for k in range(len(frames)) if a.blobs[k] is None and b.blobs[k] is None]
+    assert len(both_lost) >= 10  # they touched: one blob, given to neither
+    parted = both_lost[-1] + 1
+    a.blobs[parted:], b.blobs[parted:] = b.blobs[parted:], a.blobs[parted:]  # the tracker's mistake
+    assert relink_merges(objects, frames, background) == 1
+    assert [o.blobs for o in objects] == [o.blobs for o in tracked]
+    assert sorted(_shapes(objects, frames, background)) == ["circle", "triangle"]
+
+
+def test_tracks_that_kept_their_bodies_are_left_alone(passing_bodies: tuple[np.ndarray, np.ndarray,
+                                                                             list[TrackedObject]]) -> None:
+    frames, background, tracked = passing_bodies
+    objects = _copies(tracked)
+    assert relink_merges(objects, frames, background) == 0
+    assert [o.blobs for o in objects] == [o.blobs for o in tracked]
+    assert all(not o.measurements for o in objects)  # measurements of blobs that may have moved are dropped
