@@ -143,25 +143,23 @@ def _observations(obj: TrackedObject, frames: int) -> np.ndarray:
     return out
 
 
-def _slot_region(model: LayoutModel, values: Mapping[str, float], slot: int) -> tuple[np.ndarray, np.ndarray]:
-    """Low and high corner (metres) of a slot's start position given the static draws."""
-    lo = np.zeros(2)
-    hi = np.zeros(2)
+def _slot_starts(model: LayoutModel, values: Mapping[str, float]) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """Per slot, given the static draws: the low and high corner (metres) of its start position, and its start
+    vertical velocity (m/s; zero where the layout gives none)."""
     fields = model.evaluate(values)
     bounds = model.bounds(values)
-    for axis in range(2):
-        path = f"dynamic[{slot}].position[{axis}]"
-        if path in bounds:
-            lo[axis], hi[axis] = bounds[path]
-        else:
-            lo[axis] = hi[axis] = fields[path]
-    return lo, hi
-
-
-def _slot_velocity(model: LayoutModel, values: Mapping[str, float], slot: int) -> np.ndarray:
-    """A slot's start velocity (m/s) given the draws (zero where the layout gives none)."""
-    fields = model.evaluate(values)
-    return np.array([float(fields.get(f"dynamic[{slot}].velocity[{axis}]", 0.0)) for axis in range(2)])
+    out = []
+    for slot in range(len(model.layout.dynamic)):
+        lo = np.zeros(2)
+        hi = np.zeros(2)
+        for axis in range(2):
+            path = f"dynamic[{slot}].position[{axis}]"
+            if path in bounds:
+                lo[axis], hi[axis] = bounds[path]
+            else:
+                lo[axis] = hi[axis] = fields[path]
+        out.append((lo, hi, float(fields.get(f"dynamic[{slot}].velocity[1]", 0.0))))
+    return out
 
 
 def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Sequence[TrackedObject],
@@ -170,8 +168,8 @@ def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Seque
     each frame shows (default ``k + 1``). A body first seen after the first frame, from a slot that starts above
     the picture, is compared with where that slot's body has fallen to by then (the slots' heights order the
     entries); one hidden at first, by its x alone."""
-    n_slots = len(model.layout.dynamic)
-    cost = np.zeros((len(objects), n_slots))
+    starts = _slot_starts(model, values)
+    cost = np.zeros((len(objects), len(starts)))
     from ..perception.coords import to_metres
 
     for i, obj in enumerate(objects):
@@ -179,11 +177,10 @@ def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Seque
         first = seen[0] if seen else 0
         b = obj.blobs[first]
         pos = np.array(to_metres(b.x, b.y, 256), dtype=float) if b is not None else np.array([0.0, 60.0])
-        for s in range(n_slots):
-            lo, hi = _slot_region(model, values, s)
+        for s, (lo, hi, vy) in enumerate(starts):
             if first > 0 and lo[1] > Y_MAX:  # fell in from above the picture: fallen from its start since
                 t = (int(rows[first]) if rows is not None else first + 1) / SIM_FPS
-                fall = np.array([0.0, _slot_velocity(model, values, s)[1] * t + 0.5 * GRAVITY[1] * t * t])
+                fall = np.array([0.0, vy * t + 0.5 * GRAVITY[1] * t * t])
                 gap = np.maximum(np.maximum(lo + fall - pos, 0.0), pos - hi - fall)
             elif first > 0:  # hidden at first: only x is comparable
                 gap = np.array([max(lo[0] - pos[0], 0.0, pos[0] - hi[0]), 0.0])
@@ -192,9 +189,9 @@ def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Seque
             allowed = sum(p for (shape, size), p in obj.shape_size.items()
                           if model.slot_allows(s, (shape, obj.color_name, size)))
             cost[i, s] = float(np.hypot(*gap)) - 3.0 * math.log(max(allowed, 1e-6))
-    rows, cols = linear_sum_assignment(cost)
+    chosen, cols = linear_sum_assignment(cost)
     out = [-1] * len(objects)
-    for r, c in zip(rows, cols):
+    for r, c in zip(chosen, cols):
         out[int(r)] = int(c)
     return out
 
@@ -409,7 +406,7 @@ def _initial_units(fit: StartFit) -> np.ndarray:
             continue
         if seen[0] > 0 and axis == 1:
             # first seen later, fallen in from above the picture: dropped from rest, its height at the start
-            x, y = to_metres(obs[seen[0], 0], obs[seen[0], 1], fit.size)
+            _x, y = to_metres(obs[seen[0], 0], obs[seen[0], 1], fit.size)
             t = float(fit.rows[seen[0]]) / SIM_FPS
             lo, hi = bounds[path]
             value = float(y - 0.5 * GRAVITY[1] * t * t)
