@@ -265,8 +265,8 @@ RELINK_MARGIN = 10.0
 MIN_APART = 5
 
 
-def _merges(a: TrackedObject, b: TrackedObject) -> list[tuple[tuple[int, int], tuple[int, int], tuple[int, int]]]:
-    """Where two tracks merged: (frames before, (first frame lost, first frame found again), frames after) for
+def _merges(a: TrackedObject, b: TrackedObject) -> list[tuple[tuple[int, int], int, tuple[int, int]]]:
+    """Where two tracks merged: (frames before, the first frame both are found again, frames after) for
     each stretch between two runs of at least :data:`MIN_APART` frames where both are seen, in which both are lost
     in some frame (short partings inside a merge belong to it)."""
     n = len(a.blobs)
@@ -285,7 +285,7 @@ def _merges(a: TrackedObject, b: TrackedObject) -> list[tuple[tuple[int, int], t
             if any(a.blobs[g] is None and b.blobs[g] is None for g in range(e0, s1))]
     starts = [0] + [found for _lost, found in gaps]
     ends = [lost for lost, _found in gaps] + [n]
-    return [((starts[i], lost), (lost, found), (found, ends[i + 1])) for i, (lost, found) in enumerate(gaps)]
+    return [((starts[i], lost), found, (found, ends[i + 1])) for i, (lost, found) in enumerate(gaps)]
 
 
 def _side(obj: TrackedObject, start: int, stop: int) -> list[int]:
@@ -318,7 +318,7 @@ def relink_merges(objects: list[TrackedObject], frames: np.ndarray, background: 
     for tracks in by_colour.values():
         for i, a in enumerate(tracks):
             for b in tracks[i + 1:]:
-                for before, (_lost, found), after in _merges(a, b):
+                for before, found, after in _merges(a, b):
                     sides = [_side_log_likelihoods(o, frames, background, _side(o, lo, hi))
                              for o, (lo, hi) in ((a, before), (a, after), (b, before), (b, after))]
                     a1, a2, b1, b2 = sides
