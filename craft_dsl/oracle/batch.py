@@ -625,16 +625,21 @@ class _Batch:
         """The nodes ``root`` needs, itself included, in dependency order (cached per root)."""
         found = self.schedules.get(root)
         if found is None:
-            nodes = self.nodes
-            needed = {root}
-            stack = [root]
-            while stack:
-                for j in nodes[stack.pop()][1]:
-                    if j not in needed:
-                        needed.add(j)
-                        stack.append(j)
+            needed: set[int] = set()
+            self._walk(root, needed)
             found = self.schedules[root] = tuple(sorted(needed))
         return found
+
+    def _walk(self, root: int, needed: set[int]) -> None:
+        """Add ``root`` and every node it needs to ``needed`` (the nodes already there are not walked again)."""
+        nodes = self.nodes
+        needed.add(root)
+        stack = [root]
+        while stack:
+            for j in nodes[stack.pop()][1]:
+                if j not in needed:
+                    needed.add(j)
+                    stack.append(j)
 
     def _operations(self) -> list[_Operation]:
         """One operation per node of the table (see :data:`_Operation`)."""
@@ -678,15 +683,8 @@ class _Batch:
                     needed.update(closure)
                     continue
                 met.add(r)
-                if r in needed:
-                    continue
-                needed.add(r)
-                stack = [r]
-                while stack:
-                    for j in nodes[stack.pop()][1]:
-                        if j not in needed:
-                            needed.add(j)
-                            stack.append(j)
+                if r not in needed:
+                    self._walk(r, needed)
             order = sorted(needed)
         ops = self.ops if len(self.ops) == len(nodes) else self._operations()
         one, one_side, literal, none, two = _ONE, _ONE_SIDE, _LITERAL, _NONE, _TWO
