@@ -144,6 +144,38 @@ def test_edited_node_lists_and_texts_as_alone(sims: list[Simulation]) -> None:
     assert_same(texts, sim, "text")
 
 
+def test_repeated_node_lists_hit_the_node_memo_as_alone(sims: list[Simulation]) -> None:
+    """Every edit of every node of some programs, each edited list three times as separate copies, so that every
+    verdict of the node memo (a node, a type error, a node left to the single-program reader) is met again
+    from the memo; and values that equal a memo key's without being plain (a str subclass, a bool index)."""
+    import copy
+
+    class Word(str):
+        pass
+
+    sim = sims[0]
+    nodes: list[Any] = []
+    for _t, _p, p, _a in list(first_instances(sim))[:12]:
+        n = p.to_nodes()
+        for k in range(len(n)):
+            for kind in ("type", *EDITS):
+                nodes.append(edited(n, k, kind, NAMES[(k * 7 + len(nodes)) % len(NAMES)]))
+        sided = [k for k, node in enumerate(n) if node["value_inputs"]]
+        for k in sided[:1]:
+            odd = copy.deepcopy(n)
+            odd[k]["value_inputs"] = [Word(odd[k]["value_inputs"][0])]
+            nodes.append(odd)
+        chained = [k for k, node in enumerate(n) if node["inputs"] == [1]]
+        for k in chained[:1]:
+            odd = copy.deepcopy(n)
+            odd[k]["inputs"] = [True]
+            nodes.append(odd)
+    batch = [copy.deepcopy(x) for x in nodes for _ in range(3)]
+    result = assert_same(batch, sim, "nodes")
+    counts = result.counts()
+    assert counts["syntax_error"] and counts["type_error"] and counts["answer"], counts
+
+
 def test_mixed_forms_detected_per_program(sims: list[Simulation]) -> None:
     """form=None: a string is text, a list of objects a node list, a list of strings prefix tokens."""
     sim = sims[2]

@@ -67,6 +67,7 @@ Item = int | str
 # What reading one program gives: a node index (>= 0), one of these codes, or None (read it alone).
 _SYNTAX = -10
 _TYPE = -11
+_UNREAD = -12  # node lists: a node the batch reader leaves to the single-program reader
 
 #: Per exact token: a value word (the word), or a module as (number of arguments, spec, input order of an
 #: original name or None, fused side inputs).
@@ -176,8 +177,7 @@ class _Batch:
         self.text_memo: dict[Any, int] = {}
         self.recipes: dict[tuple[str, ...], Any] = {}
         self.literal_memo: dict[tuple[str, int, Value], int] = {}
-        self.node_memo: dict[Any, int] = {}
-        self.node_unary: dict[Any, dict[int, int]] = {}
+        self.node_memo: dict[tuple[Any, ...], int] = {}
         self.cache = ProgramCache(maxsize=1 << 30)
         self.schedules: dict[int, tuple[int, ...]] = {}
         self.roots_met: set[int] = set()
@@ -537,72 +537,99 @@ class _Batch:
             return None
 
     def _read_nodes(self, nodes: list[Any]) -> int | None:
+        # A node's memo key is (type, *input node ids, *side values). The checks that depend only on the key
+        # (the module name, the numbers of inputs and side inputs, the side values) are made once per key, by
+        # _node_new; the ones a key does not fix (the dict, the input indexes, exact str side values) per node.
         memo = self.node_memo
-        unary = self.node_unary
-        shapes: Callable[[Any], Any] = _NODE_SHAPES.get  # any hashable "type" may be looked up
+        lookup = memo.get
         built: list[int] = []
-        key: Any
+        append = built.append
+        key: tuple[Any, ...]
         for k, node in enumerate(nodes):
             if type(node) is not dict:
                 return None
             name = node.get("type")
-            shape = shapes(name)
             inputs = node.get("inputs")
-            if shape is None or type(inputs) is not list:
-                return None
-            n_inputs = shape[1]
-            if len(inputs) != n_inputs:
-                return None
             sides = node.get("value_inputs")
+            if type(inputs) is not list:
+                return None
             if not sides and (sides is None or len(node) > 3):  # as `value_inputs or side_inputs` is read
                 sides = node.get("side_inputs")
-            if sides:
-                if type(sides) is not list or len(sides) != shape[3]:
-                    return None
-                for v in sides:
-                    if type(v) is not str or v[:1] == "<":
-                        return None
-            elif shape[3]:
-                return None
-            if n_inputs == 1:
+            n = len(inputs)
+            if n == 1:
                 i = inputs[0]
                 if type(i) is not int or not 0 <= i < k:
                     return None
-                if not sides:  # the most common node: one input, no side input; a memo per name
-                    by_input = unary.get(name)
-                    if by_input is None:
-                        by_input = unary[name] = {}
-                    found = by_input.get(built[i])
-                    if found is None:
-                        found = by_input[built[i]] = self._node_call(shape, [built[i]], ())
-                    if found < 0:
-                        return _TYPE
-                    built.append(found)
-                    continue
                 key = (name, built[i])
-            elif n_inputs == 0:
-                key = name
+            elif n == 0:
+                key = (name,)
             else:
                 for i in inputs:
                     if type(i) is not int or not 0 <= i < k:
                         return None
                 key = (name, *[built[i] for i in inputs])
             if sides:
-                key = (key, *sides)
-            found = memo.get(key)
+                if type(sides) is not list:
+                    return None
+                for v in sides:
+                    if type(v) is not str:
+                        return None
+                key = (*key, *sides)
+            found = lookup(key)
             if found is None:
-                found = memo[key] = self._node_call(shape, [built[i] for i in inputs], sides or ())
+                found = memo[key] = self._node_new(key, n, sides)
             if found < 0:
-                return _TYPE
-            built.append(found)
+                return None if found == _UNREAD else _TYPE
+            append(found)
         return built[-1]
 
-    def _node_call(self, shape: tuple[ModuleSpec, int, tuple[int, ...] | None, int], args: list[int],
-                   sides: Sequence[str]) -> int:
-        reorder = shape[2]
-        if reorder is not None:
-            args = [args[j] for j in reorder]
-        return self._checked_call(shape[0], args, sides)
+    def _node_new(self, key: tuple[Any, ...], n: int, sides: list[str] | None) -> int:
+        """The node of a memo key of :meth:`_read_nodes` (``n`` input ids after the name, then ``sides``), as
+        :meth:`_checked_call` makes it; :data:`_TYPE_ERR` for a type error, :data:`_UNREAD` where the
+        single-program reader must decide (an unknown name, other numbers of inputs or side inputs, a side value
+        written as a parameter)."""
+        shape = _NODE_SHAPES.get(key[0])
+        if shape is None or shape[1] != n:
+            return _UNREAD
+        spec, _n, reorder, n_sides = shape
+        if sides:
+            if len(sides) != n_sides:
+                return _UNREAD
+            for v in sides:
+                if v[:1] == "<":
+                    return _UNREAD
+        elif n_sides:
+            return _UNREAD
+        nodes = self.nodes
+        name = spec.name
+        if n == 1:
+            ids = [key[1]]
+            res_key: tuple[Any, ...] = (name, nodes[key[1]][3])
+        else:
+            ids = list(key[1:n + 1])
+            if reorder is not None:
+                ids = [ids[j] for j in reorder]
+            res_key = (name, *[nodes[i][3] for i in ids])
+        res = _RESOLUTIONS.get(res_key)
+        if res is None:
+            if res_key in _NO_OVERLOAD or _resolve_overload(spec, res_key[1:]) is None:
+                _NO_OVERLOAD.add(res_key)
+                return _TYPE_ERR
+            res = _RESOLUTIONS[res_key]
+        values: tuple[Value, ...] = ()
+        if sides:
+            canonical: list[Value] = []
+            for value, expected in zip(sides, spec.side_inputs):
+                found = _canonical(value, expected)
+                if found is None:
+                    return _TYPE_ERR
+                canonical.append(found)
+            values = tuple(canonical)
+        overload, output, wrap = res
+        add = self.builder._add
+        for j in wrap:
+            ids[j] = add(("Unique", (ids[j],), (), DslType.OBJECT, 0))
+        return add((name, tuple(ids), values, output, overload))
 
     # -- programs read alone -------------------------------------------------------------------------------
 
