@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from craft_dsl.reader.detect import Blob
-from craft_dsl.reader.layout import ALIASED_EDGE_SHARE, edge_share, observation
+from craft_dsl.reader.layout import ALIASED_EDGE_SHARE, edge_share, fit_layout, observation
 from craft_dsl.reader.layout_model import layout_model
 from craft_dsl.reader.reconstruct import assign_slots, first_window
 from craft_dsl.reader.track import TrackedObject
@@ -63,3 +63,16 @@ def test_the_first_fit_sees_a_late_body_for_a_while() -> None:
     assert first_window({0: seen_early}, rows) == 40
     assert first_window({0: seen_early, 1: seen_late}, rows) == 110
     assert first_window({1: np.full((600, 3), np.nan)}, rows) == 40  # never seen: nothing to wait for
+
+
+def test_a_ghost_away_from_the_statics_does_not_make_aliased_edges_antialiased() -> None:
+    # a body resting for part of a video leaves a washed-out ghost (mid greys) in the median background; only the
+    # pixels near the fitted statics tell how their edges are drawn
+    background = _background(aliased=True)
+    yy, xx = np.mgrid[: background.shape[0], : background.shape[1]]
+    ghost = (yy - 40) ** 2 + (xx - 200) ** 2 < 12**2
+    assert not (background[ghost] < 250).any()  # the ghost lies away from every static
+    background[ghost] = 170
+    assert edge_share(*observation(background)) > ALIASED_EDGE_SHARE  # over the whole picture it would read antialiased
+    fit = fit_layout(np.repeat(background[None], 8, axis=0), scene=12)
+    assert fit.aliased
