@@ -89,6 +89,10 @@ def _token_kinds() -> dict[str, _TokenKind | str]:
     return _TOKEN_KINDS
 
 
+#: A prefix token's entry in a batch: (number of arguments or -1 for a value, memo, kind). The memo is the
+#: item per argument (one argument), per pair of arguments (two), the call's item itself (none), or None.
+_Word = tuple[int, Any, _TokenKind]
+
 #: Per exact token: its number of arguments (modules) or -1 (values).
 _ARITY: dict[str, int] = {}
 
@@ -174,6 +178,8 @@ class _Batch:
         self.token_memo: dict[Any, Item] = {}
         #: Modules of one argument: per token, the memo by argument (cheaper than a (token, argument) key).
         self.unary: dict[str, dict[Item, Item]] = {}
+        #: Prefix reader: per token of the exact-spelling table met in this batch, see :data:`_Word`.
+        self.words: dict[str, _Word] = {}
         self.text_memo: dict[Any, int] = {}
         self.recipes: dict[tuple[str, ...], Any] = {}
         self.literal_memo: dict[tuple[str, int, Value], int] = {}
@@ -271,60 +277,81 @@ class _Batch:
                 return _OPEN_ERR
         return _OPEN_OK
 
+    def _word(self, word: str, n: int) -> _Word:
+        """The batch's entry of a token of the exact-spelling table with ``n`` arguments (-1: a value)."""
+        kind = cast(_TokenKind, _TOKEN_KINDS[word])
+        entry: _Word
+        if n == -1:
+            entry = (-1, None, kind)
+        elif n == 0:
+            entry = (0, self._call(kind, ()), kind)
+        elif n == 1:
+            by_arg = self.unary.get(word)
+            if by_arg is None:
+                by_arg = self.unary[word] = {}
+            entry = (1, by_arg, kind)
+        elif n == 2:
+            entry = (2, {}, kind)
+        else:
+            entry = (n, None, kind)
+        self.words[word] = entry
+        return entry
+
     def read_prefix(self, words: Sequence[Any]) -> int | None:
         """Prefix tokens, read right to left: a stack of complete terms (see the module docstring)."""
         arity = (_ARITY or _token_arity()).get
-        kinds = _TOKEN_KINDS
-        memo = self.token_memo
-        lookup = memo.get
+        entry_of = self.words.get
         call = self._call
         stack: list[Item] = []
         push = stack.append
-        unary = self.unary
-        by_word = unary.get
-        key: Any
+        pop = stack.pop
+        item: Item
         for word in reversed(words):
-            by_arg = by_word(word)
-            if by_arg is None:
+            entry = entry_of(word)
+            if entry is None:
                 n = arity(word)
-                if n == -1:
-                    push(word)
-                    continue
-                if n == 0:
-                    item = lookup(word)
-                    if item is None:
-                        item = memo[word] = call(kinds[word], ())  # type: ignore[arg-type]
-                    push(item)
-                    continue
                 if n is None:
                     if not _extra_token(word):
                         return None
                     push(word)
                     continue
-                if n != 1:
-                    if len(stack) >= n:
-                        args = stack[-n:]
-                        args.reverse()
-                        key = (word, *args)
-                        item = lookup(key)
-                        if item is None:
-                            item = memo[key] = call(kinds[word], args)  # type: ignore[arg-type]
-                        del stack[-n:]
-                        push(item)
-                    else:  # fewer terms than arguments: the call runs past the end
-                        stack.reverse()
-                        stack[:] = [self._open(kinds[word], stack)]  # type: ignore[arg-type]
-                    continue
-                by_arg = unary[word] = {}
-            # A module of one argument (the most common token): its memo by argument.
-            if stack:
-                top = stack[-1]
-                item = by_arg.get(top)
-                if item is None:
-                    item = by_arg[top] = call(kinds[word], (top,))  # type: ignore[arg-type]
-                stack[-1] = item
+                entry = self._word(word, n)
+            code, memo, kind = entry
+            if code == 1:  # a module of one argument (the most common token): its memo by argument
+                if stack:
+                    top = stack[-1]
+                    item = memo.get(top)
+                    if item is None:
+                        item = memo[top] = call(kind, (top,))
+                    stack[-1] = item
+                else:
+                    push(_OPEN_OK)
+            elif code == -1:
+                push(word)
+            elif code == 2:  # its memo by (first argument, second argument)
+                if len(stack) >= 2:
+                    pair = (pop(), stack[-1])
+                    item = memo.get(pair)
+                    if item is None:
+                        item = memo[pair] = call(kind, pair)
+                    stack[-1] = item
+                else:  # fewer terms than arguments: the call runs past the end
+                    stack.reverse()
+                    stack[:] = [self._open(kind, stack)]
+            elif code == 0:
+                push(memo)  # its node, made with the entry
+            elif len(stack) >= code:
+                args = stack[-code:]
+                args.reverse()
+                key = (word, *args)
+                found = self.token_memo.get(key)
+                if found is None:
+                    found = self.token_memo[key] = call(kind, args)
+                del stack[-code:]
+                push(found)
             else:
-                push(_OPEN_OK)
+                stack.reverse()
+                stack[:] = [self._open(kind, stack)]
         top = stack[-1]
         if type(top) is str:  # the sequence starts with a value
             return _SYNTAX
