@@ -176,6 +176,27 @@ def test_repeated_node_lists_hit_the_node_memo_as_alone(sims: list[Simulation]) 
     assert counts["syntax_error"] and counts["type_error"] and counts["answer"], counts
 
 
+@pytest.mark.parametrize("order", ["prefix", "postfix"])
+def test_token_list_batches_as_alone(sims: list[Simulation], order: str) -> None:
+    """Batches of token lists only (read in single passes over the batch) with tokens the batch reader leaves to
+    the single-program reader (other spellings, integers written otherwise, non-strings), repeated; and the same
+    batches with an unhashable token, an empty list or a tuple among them (read program by program)."""
+    rng = random.Random(13)
+    sim = sims[2]
+    odd: list[Any] = ["count", "events", "+1", "007", 5, None, "Red", "FILTER_COLOR", "filter_color"]
+    batch: list[Any] = []
+    for _t, _p, p, _a in first_instances(sim, include_dropped=True):
+        tokens = p.to_tokens(order)  # type: ignore[arg-type]
+        batch += [tokens, token_edits(tokens, rng)]
+        edited_tokens = list(tokens)
+        edited_tokens[rng.randrange(len(tokens))] = rng.choice(odd)
+        batch += [edited_tokens, list(edited_tokens)]
+    result = assert_same(batch, sim, order)
+    assert result.counts()["answer"] and result.counts()["syntax_error"] and result.counts()["type_error"]
+    for other in (["Count", ["x"]], [], ("Count", "Events")):
+        assert_same([*batch[:40], other, *batch[:40]], sim, order)
+
+
 def test_mixed_forms_detected_per_program(sims: list[Simulation]) -> None:
     """form=None: a string is text, a list of objects a node list, a list of strings prefix tokens."""
     sim = sims[2]

@@ -662,7 +662,10 @@ class _Batch:
 
     def read_alone(self, program: Any, form: ProgramForm | None) -> int:
         """A program the batch readers leave to the single-program readers; its nodes join the table."""
-        outcome, checked = check_outcome(program, form, self.cache)
+        try:
+            outcome, checked = check_outcome(program, form, self.cache)
+        except TypeError:  # ProgramCache.get hashes a token list's tokens: one is unhashable
+            outcome, checked = check_outcome(program, form)
         if outcome is not None:
             return _SYNTAX if outcome.kind == "syntax_error" else _TYPE
         assert checked is not None
@@ -881,11 +884,76 @@ def run_batch(programs: Sequence[Any], sims: Simulation | Sequence[Simulation],
 
 def _run(programs: Sequence[Any], sims: Simulation | Sequence[Simulation], sim_list: Sequence[Simulation] | None,
          form: ProgramForm | None) -> BatchResult:
-    n = len(programs)
     batch = _Batch()
     # Read every distinct program once: `read[i]` is program i's answer node, or an error code. Programs are
     # the same when they are equal token lists (or strings) in the same form, or the same node-list object.
-    read: list[int] = [0] * n
+    read = _read_token_lists(batch, programs, form) if form == "prefix" or form == "postfix" else None
+    if read is None:
+        read = _read_each(batch, programs, form)
+
+    # Evaluate the needed nodes once per simulation.
+    invalid = INVALID
+    if sim_list is None:
+        distinct = set(read)
+        roots = [r for r in distinct if r >= 0]
+        slots = batch.evaluate(sims, roots) if roots else {}  # type: ignore[arg-type]
+        # One outcome per distinct root, then the columns in one pass each.
+        code_of: dict[int, int] = {_SYNTAX: SYNTAX_ERROR, _TYPE: TYPE_ERROR}
+        answer_of: dict[int, Any] = {_SYNTAX: None, _TYPE: None}
+        for r in distinct:
+            if r >= 0:
+                v = slots[r]
+                code_of[r], answer_of[r] = (INVALID_ANSWER, None) if v is invalid else (ANSWER, v)
+        return BatchResult(np.array(list(map(code_of.__getitem__, read)), dtype=np.int8),
+                           list(map(answer_of.__getitem__, read)))
+    groups: dict[int, tuple[Simulation, list[int]]] = {}
+    group_of = list(map(id, sim_list))
+    for r, s, g_id in zip(read, sim_list, group_of):
+        g = groups.get(g_id)
+        if g is None:
+            g = groups[g_id] = (s, [])
+        if r >= 0:
+            g[1].append(r)
+    values = {g_id: batch.evaluate(s, roots) if roots else {} for g_id, (s, roots) in groups.items()}
+    results = [values[g][r] if r >= 0 else invalid for g, r in zip(group_of, read)]
+    codes = [(INVALID_ANSWER if v is invalid else ANSWER) if r >= 0 else SYNTAX_ERROR if r == _SYNTAX else TYPE_ERROR
+             for r, v in zip(read, results)]
+    answers = [None if v is invalid else v for v in results]
+    return BatchResult(np.array(codes, dtype=np.int8), answers)
+
+
+def _read_token_lists(batch: _Batch, programs: Sequence[Any], form: str) -> list[int] | None:
+    """The reading of a batch whose programs are all non-empty lists of hashable tokens (the form a sampler
+    gives), with the per-program work in single passes: keys, distinct keys, results per program. None for
+    any other batch (:func:`_read_each` reads it)."""
+    if not programs or set(map(type, programs)) != {list} or not all(programs):
+        return None
+    keys = list(map(tuple, programs))
+    try:
+        distinct: dict[tuple[Any, ...], Any] = dict.fromkeys(keys)
+    except TypeError:  # a token that is not hashable
+        return None
+    reader = batch.read_prefix if form == "prefix" else batch.read_postfix
+    answer_types = ANSWER_TYPES
+    nodes = batch.nodes
+    first: dict[tuple[Any, ...], int] = {}  # the first program of each key, for the single-program reader
+    for key in distinct:  # in the order of the first programs: the first refused program is named
+        result = reader(key)
+        if result is None:
+            if not first:
+                for i, k in enumerate(keys):
+                    first.setdefault(k, i)
+            i = first[key]
+            result = _alone(batch, programs[i], form, i)  # type: ignore[arg-type]
+        elif result >= 0 and nodes[result][3] not in answer_types:
+            result = _TYPE
+        distinct[key] = result
+    return list(map(distinct.__getitem__, keys))
+
+
+def _read_each(batch: _Batch, programs: Sequence[Any], form: ProgramForm | None) -> list[int]:
+    """The reading of any batch, program by program (see :func:`_run`)."""
+    read: list[int] = [0] * len(programs)
     seen: dict[str, dict[Any, int]] = {f: {} for f in FORMS}
     keep: list[Any] = []  # node lists are told apart by identity: keep them alive for the call
     readers: dict[str, Callable[[Any], int | None]] = {
@@ -936,32 +1004,7 @@ def _run(programs: Sequence[Any], sims: Simulation | Sequence[Simulation], sim_l
             if p_form == "nodes":
                 keep.append(program)
         read[i] = found
-
-    # Evaluate the needed nodes once per simulation.
-    groups: dict[int, tuple[Simulation, list[int]]] = {}
-    if sim_list is None:
-        groups[0] = (sims, [r for r in read if r >= 0])  # type: ignore[assignment]
-        group_of: list[int] = [0] * n
-    else:
-        group_of = [id(s) for s in sim_list]
-        for r, s, g_id in zip(read, sim_list, group_of):
-            g = groups.get(g_id)
-            if g is None:
-                g = groups[g_id] = (s, [])
-            if r >= 0:
-                g[1].append(r)
-    values = {g_id: batch.evaluate(s, roots) if roots else {} for g_id, (s, roots) in groups.items()}
-
-    invalid = INVALID
-    if sim_list is None:
-        slots = values[0]
-        results = [slots[r] if r >= 0 else invalid for r in read]
-    else:
-        results = [values[g][r] if r >= 0 else invalid for g, r in zip(group_of, read)]
-    codes = [(INVALID_ANSWER if v is invalid else ANSWER) if r >= 0 else SYNTAX_ERROR if r == _SYNTAX else TYPE_ERROR
-             for r, v in zip(read, results)]
-    answers = [None if v is invalid else v for v in results]
-    return BatchResult(np.array(codes, dtype=np.int8), answers)
+    return read
 
 
 def _one(program: Any, sim: Simulation, form: ProgramForm | None) -> BatchResult:
