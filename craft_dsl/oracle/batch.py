@@ -197,6 +197,21 @@ class _Batch:
 
     def _call(self, kind: _TokenKind, args: Sequence[Item]) -> Item:
         """The item of a module token applied to ``args`` (in argument order)."""
+        # The common well-formed calls first: one term; two terms; a term and a value word as side input.
+        n = len(args)
+        if n and type(a := args[0]) is int and a >= 0:
+            spec = kind[1]
+            if n == 1:
+                return self._checked_call(spec, [a], kind[3]) if spec.n_inputs == 1 else _TYPE_ERR
+            if n == 2:
+                b = args[1]
+                if spec.n_inputs == 2:
+                    if type(b) is int and b >= 0:
+                        order = kind[2]
+                        return self._checked_call(spec, [a, b] if order is None else [(a, b)[j] for j in order],
+                                                  kind[3])
+                elif spec.n_inputs == 1 and type(b) is str and b in _TOKEN_KINDS and not kind[3]:
+                    return self._checked_call(spec, [a], (b,))
         if args and type(last := args[-1]) is int and last in (_OPEN_OK, _OPEN_ERR):
             return self._open(kind, args)
         _n_args, spec, order, fused = kind
