@@ -49,22 +49,35 @@ _INT_START = frozenset("-0123456789")
 _SHAPES: dict[str, tuple[ModuleSpec, int, int]] = {
     name: (spec, spec.n_inputs, spec.arity) for name, spec in NAMES.items()
 }
-#: An open call: its shape, its arguments so far (input node ids, then side-input values), its reading-order index.
-_Frame = tuple[ModuleSpec, int, int, list[Any], int]
+#: An open call of :func:`scan_calls`: its shape, its arguments so far (what the hooks give for each argument),
+#: and its index in reading order.
+Frame = tuple[ModuleSpec, int, int, list[Any], int]
 
 
-def fast_check(text: str) -> CheckedProgram | None:
-    """The checked program of binding-free text, or None where the full parser must decide."""
+class GiveUp(Exception):
+    """Raised by a hook of :func:`scan_calls`: the text is left to the grammar."""
+
+
+def scan_calls(text: str, state: Any, close: Callable[[Any, Frame], Any],
+               input_value: Callable[[Any, ModuleSpec, int, Value], Any],
+               side_value: Callable[[Any, ModuleSpec, int, str], Any] | None = None) -> tuple[Any, list[Any]] | None:
+    """The fast path's scanner and reader of calls, shared by :func:`fast_check` and the batch text reader:
+    ``(root, items)`` for binding-free text, None where it gives up (anything the grammar must decide).
+
+    Each call is handed to ``close(state, frame)`` when its closing parenthesis is read, its arguments already
+    in the frame: what ``close`` gave for each call argument, ``input_value(state, spec, k, value)`` for a
+    quoted value (a str) or an integer in input position ``k``, ``side_value(state, spec, k, value)`` (or the
+    value itself where ``side_value`` is None) for a quoted value in side-input position ``k``. ``root`` is what
+    ``close`` gave for the outermost call, ``items`` what it gave for each call in reading order. A hook gives
+    up by raising :class:`GiveUp` (or a ProgramError); the number of arguments is for ``close`` to check.
+    """
     toks = _FAST_TOKEN.findall(text)
     if not toks or "Var" in toks:
         return None
-    builder = ProgramBuilder()
-    call = builder.call
     shape_of = _SHAPES.get
-    sources: list[int] = []
-    # One frame per open call: its shape, its arguments so far (input node ids, then side-input values) and
-    # the index of the call in reading order.
-    frames: list[_Frame] = []
+    items: list[Any] = []
+    # One frame per open call.
+    frames: list[Frame] = []
     n = len(toks)
     i = 0
     try:
@@ -78,34 +91,36 @@ def fast_check(text: str) -> CheckedProgram | None:
                 shape = shape_of(tok)
                 if shape is None:
                     return None
-                frame: _Frame = (*shape, [], len(sources))
-                sources.append(-1)
+                frame: Frame = (*shape, [], len(items))
+                items.append(None)
                 i += 2
                 if toks[i] != ")":
                     frames.append(frame)
                     continue
                 i += 1
-                node: int | None = _close(call, frame, sources)
-                value = 0
+                item = items[frame[4]] = close(state, frame)
+                is_call = True
             elif first == '"':
-                node, value = None, tok[1:-1]
+                value = tok[1:-1]
+                is_call = False
                 i += 1
             elif first in _INT_START and tok != "-":
-                node, value = None, integer_literal(tok)
+                value = integer_literal(tok)
+                is_call = False
                 i += 1
             else:
                 return None
-            while True:  # deliver the value to the call it is an argument of
+            while True:  # deliver the argument to the call it belongs to
                 if not frames:
-                    if i != n or node is None:
+                    if i != n or not is_call:
                         return None
-                    return builder.finish(node, sources)
-                spec, n_inputs, arity, args, _source = frames[-1]
+                    return item, items
+                spec, n_inputs, arity, args, _index = frames[-1]
                 k = len(args)
                 if k < n_inputs:
-                    args.append(node if node is not None else builder.input_literal(spec, k, value, None))
-                elif k < arity and node is None and isinstance(value, str):
-                    args.append(value)
+                    args.append(item if is_call else input_value(state, spec, k, value))
+                elif k < arity and not is_call and isinstance(value, str):
+                    args.append(value if side_value is None else side_value(state, spec, k, value))
                 else:
                     return None
                 tok = toks[i]
@@ -114,17 +129,32 @@ def fast_check(text: str) -> CheckedProgram | None:
                     break
                 if tok != ")":
                     return None
-                node = _close(call, frames.pop(), sources)
-    except (IndexError, ValueError, ProgramError):
+                frame = frames.pop()
+                item = items[frame[4]] = close(state, frame)
+                is_call = True
+    except (IndexError, ValueError, ProgramError, GiveUp):
         return None
 
 
-def _close(call: Callable[..., int], frame: _Frame, sources: list[int]) -> int:
-    spec, n_inputs, arity, args, source = frame
+def fast_check(text: str) -> CheckedProgram | None:
+    """The checked program of binding-free text, or None where the full parser must decide."""
+    builder = ProgramBuilder()
+    found = scan_calls(text, builder, _close, _input_literal)
+    if found is None:
+        return None
+    root, sources = found
+    return builder.finish(root, sources)
+
+
+def _close(builder: ProgramBuilder, frame: Frame) -> int:
+    spec, n_inputs, arity, args, _index = frame
     if len(args) != arity:
-        raise ParseError("arity")  # caught by fast_check: the full path reports it
-    node = sources[source] = call(spec, args[:n_inputs], args[n_inputs:]) if arity > n_inputs else call(spec, args, ())
-    return node
+        raise ParseError("arity")  # scan_calls gives up: the full path reports it
+    return builder.call(spec, args[:n_inputs], args[n_inputs:]) if arity > n_inputs else builder.call(spec, args, ())
+
+
+def _input_literal(builder: ProgramBuilder, spec: ModuleSpec, k: int, value: Value) -> int:
+    return builder.input_literal(spec, k, value, None)
 
 
 def check_text(text: str) -> CheckedProgram:

@@ -197,6 +197,38 @@ def test_token_list_batches_as_alone(sims: list[Simulation], order: str) -> None
         assert_same([*batch[:40], other, *batch[:40]], sim, order)
 
 
+def test_the_shared_text_scanner() -> None:
+    """craft_dsl.parser.scan_calls, the scanner of fast_check and of the batch text reader: each call closed once,
+    in the order of its closing parenthesis, with its arguments as the hooks give them; None for what the
+    grammar must decide, and where a hook gives up."""
+    from craft_dsl.parser import GiveUp, scan_calls
+
+    closed: list[tuple[str, list[Any], int]] = []
+
+    def close(state: list[str], frame: Any) -> str:
+        spec, _n_inputs, _arity, args, index = frame
+        closed.append((spec.name, list(args), index))
+        if spec.name in state:
+            raise GiveUp
+        return spec.name
+
+    def input_value(state: Any, spec: Any, k: int, value: Any) -> tuple[str, Any]:
+        return ("input", value)
+
+    text = 'EqualColor(QueryColor(Unique(FilterColor(SceneAtStart(), "red"))), "blue")'
+    root, items = scan_calls(text, [], close, input_value)  # type: ignore[misc]
+    assert root == "EqualColor" and items == ["EqualColor", "QueryColor", "Unique", "FilterColor", "SceneAtStart"]
+    assert closed == [("SceneAtStart", [], 4), ("FilterColor", ["SceneAtStart", "red"], 3),
+                      ("Unique", ["FilterColor"], 2), ("QueryColor", ["Unique"], 1),
+                      ("EqualColor", ["QueryColor", ("input", "blue")], 0)]
+    side = scan_calls(text, [], close, input_value, lambda state, spec, k, value: ("side", k, value))
+    assert side is not None and closed[-4][1] == ["SceneAtStart", ("side", 1, "red")]
+    for bad in ("", "Count(", "Count(Events()) x", "Var(x, Events(), Count(x))", '"red"', "Count(Events(),)",
+                "Count(Events() Events())", "Count(Events(), 7, 8)"):
+        assert scan_calls(bad, [], close, input_value) is None, bad
+    assert scan_calls(text, ["Unique"], close, input_value) is None
+
+
 def test_mixed_forms_detected_per_program(sims: list[Simulation]) -> None:
     """form=None: a string is text, a list of objects a node list, a list of strings prefix tokens."""
     sim = sims[2]

@@ -44,8 +44,7 @@ from ..errors import (
 )
 from ..ir import RawNode, Value
 from ..nodes import _SHAPES as _NODE_SHAPES
-from ..parser import _FAST_TOKEN, _INT_START, _NAME_START
-from ..parser import _SHAPES as _TEXT_SHAPES
+from ..parser import Frame, GiveUp, scan_calls
 from ..registry import IMPLS, ModuleSpec
 from ..simulation import Simulation
 from ..tokens import _INT, _ORIGINAL_TO_OURS, _kinds
@@ -450,7 +449,7 @@ class _Batch:
         values = parts[1::2]
         results: list[int] = []
         try:
-            for tok, spec, sources in steps:
+            for spec, sources in steps:
                 args: list[Any] = []
                 for kind, ref, k in sources:
                     if kind == _CONSTANT:
@@ -461,8 +460,8 @@ class _Batch:
                         args.append(self._text_literal(spec, k, values[ref]))
                     else:
                         args.append(values[ref])
-                results.append(self._text_call(tok, spec, args))
-        except (ProgramError, _GiveUp):
+                results.append(self._text_call(spec, args))
+        except (ProgramError, GiveUp):
             return None
         return results[-1]
 
@@ -470,84 +469,16 @@ class _Batch:
         """The recipe of a text's skeleton: ``(steps, root)``, where ``steps`` are the calls that take quoted
         values (directly or through their arguments), in order, the last one the answer, and ``root`` is the
         answer's node when no call takes one; :data:`_NO_RECIPE` where :func:`~craft_dsl.parser.fast_check`
-        gives up on every text of this skeleton. Follows that reader token by token."""
-        toks = _FAST_TOKEN.findall(text)
-        if not toks or "Var" in toks:
+        gives up on every text of this skeleton. Read by the same scanner (:func:`~craft_dsl.parser.scan_calls`)."""
+        recipe = _Recipe(self)
+        found = scan_calls(text, recipe, _Recipe.close, _Recipe.input_value, _Recipe.side_value)
+        if found is None:
             return _NO_RECIPE
-        shape_of = _TEXT_SHAPES.get
-        steps: list[_Step] = []
-        frames: list[tuple[str, ModuleSpec, int, int, list[_Source]]] = []
-        quoted = 0  # quoted tokens so far: the index of the next one among the text's values
-        n = len(toks)
-        i = 0
-        try:
-            while True:
-                tok = toks[i]
-                first = tok[0]
-                source: _Source | None  # a call's result, or None for a value
-                value: Value | None = None
-                if first in _NAME_START:
-                    if toks[i + 1] != "(":
-                        return _NO_RECIPE
-                    shape = shape_of(tok)
-                    if shape is None:
-                        return _NO_RECIPE
-                    frame: tuple[str, ModuleSpec, int, int, list[_Source]] = (tok, *shape, [])
-                    i += 2
-                    if toks[i] != ")":
-                        frames.append(frame)
-                        continue
-                    i += 1
-                    source = self._recipe_close(frame, steps)
-                elif first == '"':
-                    source = None
-                    quoted += 1
-                    i += 1
-                elif first in _INT_START and tok != "-":
-                    source, value = None, integer_literal(tok)
-                    i += 1
-                else:
-                    return _NO_RECIPE
-                while True:  # deliver the value to the call it is an argument of
-                    if not frames:
-                        if i != n or source is None:
-                            return _NO_RECIPE
-                        return (steps, source[1]) if source[0] == _CONSTANT else (steps, -1)
-                    _tok, spec, n_inputs, arity, args = frames[-1]
-                    k = len(args)
-                    if k < n_inputs:
-                        if source is not None:
-                            args.append(source)
-                        elif value is not None:  # an integer
-                            args.append((_CONSTANT, self._text_literal(spec, k, value), k))
-                        else:
-                            args.append((_INPUT_VALUE, quoted - 1, k))
-                    elif k < arity and source is None and value is None:
-                        args.append((_SIDE_VALUE, quoted - 1, k))
-                    else:
-                        return _NO_RECIPE
-                    tok = toks[i]
-                    i += 1
-                    if tok == ",":
-                        break
-                    if tok != ")":
-                        return _NO_RECIPE
-                    source, value = self._recipe_close(frames.pop(), steps), None
-        except (IndexError, ValueError, ProgramError, _GiveUp):
-            return _NO_RECIPE
+        kind, ref, _k = found[0]
+        return (recipe.steps, ref) if kind == _CONSTANT else (recipe.steps, -1)
 
-    def _recipe_close(self, frame: tuple[str, ModuleSpec, int, int, list[_Source]], steps: list[_Step]) -> _Source:
-        """A call of a recipe: checked now if it takes no quoted value, else a step."""
-        tok, spec, _n_inputs, arity, args = frame
-        if len(args) != arity:
-            raise _GiveUp
-        if all(kind == _CONSTANT for kind, _ref, _k in args):
-            return (_CONSTANT, self._text_call(tok, spec, [ref for _kind, ref, _k in args]), 0)
-        steps.append((tok, spec, tuple(args)))
-        return (_STEP, len(steps) - 1, 0)
-
-    def _text_call(self, tok: str, spec: ModuleSpec, args: list[Any]) -> int:
-        key = (tok, *args)
+    def _text_call(self, spec: ModuleSpec, args: list[Any]) -> int:
+        key = (spec.name, *args)
         found = self.text_memo.get(key)
         if found is None:
             try:
@@ -556,7 +487,7 @@ class _Batch:
                 found = -1
             self.text_memo[key] = found
         if found < 0:
-            raise _GiveUp
+            raise GiveUp
         return found
 
     def _text_literal(self, spec: ModuleSpec, k: int, value: Value) -> int:
@@ -832,14 +763,39 @@ def _canonical(value: str, typ: DslType) -> str | None:
 #: Where an argument of a text recipe's call comes from: (kind, reference, argument position).
 _Source = tuple[int, int, int]
 _CONSTANT, _STEP, _INPUT_VALUE, _SIDE_VALUE = range(4)  # a node; a step's result; a quoted value as input / side
-_Step = tuple[str, ModuleSpec, tuple[_Source, ...]]
+_Step = tuple[ModuleSpec, tuple[_Source, ...]]
 _NO_RECIPE = object()
 #: A quoted value, as the text reader's scanner finds it (craft_dsl.parser._FAST_TOKEN).
 _QUOTED = re.compile('"([^"\u201c\u201d\n]*)"')
 
 
-class _GiveUp(Exception):
-    """The text reader leaves the program to the single-program reader."""
+class _Recipe:
+    """The hooks of :func:`~craft_dsl.parser.scan_calls` that make a text recipe: each argument a :data:`_Source`."""
+
+    def __init__(self, batch: _Batch) -> None:
+        self.batch = batch
+        self.steps: list[_Step] = []
+        self.quoted = 0  # quoted values so far: the index of the next one among the text's values
+
+    def close(self, frame: Frame) -> _Source:
+        """A call: checked now if it takes no quoted value, else a step."""
+        spec, _n_inputs, arity, args, _index = frame
+        if len(args) != arity:
+            raise GiveUp
+        if all(kind == _CONSTANT for kind, _ref, _k in args):
+            return (_CONSTANT, self.batch._text_call(spec, [ref for _kind, ref, _k in args]), 0)
+        self.steps.append((spec, tuple(args)))
+        return (_STEP, len(self.steps) - 1, 0)
+
+    def input_value(self, spec: ModuleSpec, k: int, value: Value) -> _Source:
+        if isinstance(value, int):
+            return (_CONSTANT, self.batch._text_literal(spec, k, value), k)
+        self.quoted += 1
+        return (_INPUT_VALUE, self.quoted - 1, k)
+
+    def side_value(self, spec: ModuleSpec, k: int, value: str) -> _Source:
+        self.quoted += 1
+        return (_SIDE_VALUE, self.quoted - 1, k)
 
 
 def _check_form(form: Any) -> ProgramForm | None:
