@@ -13,6 +13,7 @@ import pytest
 
 from craft_dsl import CraftError, Program, Simulation, load_simulation, parse
 from craft_dsl.cli import main
+from craft_dsl.errors import ProgramError
 from craft_dsl.oracle import (
     ProgramCache,
     compare_trace,
@@ -96,6 +97,17 @@ def test_program_cache_reads_each_distinct_program_once() -> None:
     cache.get(p.to_nodes(), "nodes")
     assert len(cache) == 2  # the oldest entry left
 
+
+def test_program_cache_reads_a_token_list_it_cannot_key() -> None:
+    """A token that is not hashable makes the list unkeyable: it is read (a syntax error, as without a cache),
+    never a TypeError."""
+    cache = ProgramCache()
+    with pytest.raises(ProgramError) as caught:
+        cache.get(["Count", ["x"]], "prefix")
+    with pytest.raises(ProgramError) as alone:
+        read_program(["Count", ["x"]], "prefix")
+    assert str(caught.value) == str(alone.value)
+    assert len(cache) == 0
 
 
 def test_program_cache_keys_node_lists_by_their_exact_form() -> None:

@@ -608,10 +608,7 @@ class _Batch:
 
     def read_alone(self, program: Any, form: ProgramForm | None) -> int:
         """A program the batch readers leave to the single-program readers; its nodes join the table."""
-        try:
-            outcome, checked = check_outcome(program, form, self.cache)
-        except TypeError:  # ProgramCache.get hashes a token list's tokens: one is unhashable
-            outcome, checked = check_outcome(program, form)
+        outcome, checked = check_outcome(program, form, self.cache)
         if outcome is not None:
             return _SYNTAX if outcome.kind == "syntax_error" else _TYPE
         assert checked is not None

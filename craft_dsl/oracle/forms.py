@@ -81,9 +81,9 @@ class ProgramCache:
                 key = program
             else:
                 key = tuple(program)
-        except (TypeError, ValueError):  # not iterable, or not a plain node list: read it for the precise error
-            return read_program(program, form)
-        entry = self._entries.get((form, key))
+            entry = self._entries.get((form, key))
+        except (TypeError, ValueError):  # not iterable, not hashable, or not a plain node list: read it for the
+            return read_program(program, form)  # precise error
         if entry is None:
             self.misses += 1
             try:
