@@ -573,36 +573,13 @@ class _Batch:
                     return _UNREAD
         elif n_sides:
             return _UNREAD
-        nodes = self.nodes
-        name = spec.name
         if n == 1:
             ids = [key[1]]
-            res_key: tuple[Any, ...] = (name, nodes[key[1]][3])
         else:
             ids = list(key[1:n + 1])
             if reorder is not None:
                 ids = [ids[j] for j in reorder]
-            res_key = (name, *[nodes[i][3] for i in ids])
-        res = _RESOLUTIONS.get(res_key)
-        if res is None:
-            if res_key in _NO_OVERLOAD or _resolve_overload(spec, res_key[1:]) is None:
-                _NO_OVERLOAD.add(res_key)
-                return _TYPE_ERR
-            res = _RESOLUTIONS[res_key]
-        values: tuple[Value, ...] = ()
-        if sides:
-            canonical: list[Value] = []
-            for value, expected in zip(sides, spec.side_inputs):
-                found = _canonical(value, expected)
-                if found is None:
-                    return _TYPE_ERR
-                canonical.append(found)
-            values = tuple(canonical)
-        overload, output, wrap = res
-        add = self.builder._add
-        for j in wrap:
-            ids[j] = add(("Unique", (ids[j],), (), DslType.OBJECT, 0))
-        return add((name, tuple(ids), values, output, overload))
+        return self._checked_call(spec, ids, sides or ())
 
     # -- programs read alone -------------------------------------------------------------------------------
 
