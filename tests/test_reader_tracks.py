@@ -1,12 +1,13 @@
-"""Tracks of two bodies of one colour that touch and part: relinked so that each is one shape."""
+"""Tracks of bodies of one colour: pieces of one body counted once; two bodies that touch and part relinked so
+that each is one shape."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from craft_dsl.reader.detect import blobs, grid_labels, grid_rims
-from craft_dsl.reader.track import TrackedObject, classify_shape, relink_merges, track
+from craft_dsl.reader.detect import Blob, blobs, grid_labels, grid_rims
+from craft_dsl.reader.track import TrackedObject, classify_shape, count_per_color, relink_merges, track
 from craft_dsl.render import frames as render_frames
 from craft_dsl.render.raster import static_layer
 from craft_dsl.world import WorldSpec, assign_uids, make_dynamic, make_static
@@ -66,3 +67,26 @@ def test_tracks_that_kept_their_bodies_are_left_alone(passing_bodies: tuple[np.n
     assert relink_merges(objects, frames, background) == 0
     assert [o.blobs for o in objects] == [o.blobs for o in tracked]
     assert all(not o.measurements for o in objects)  # measurements of blobs that may have moved are dropped
+
+
+def _blob(frame: int, x: float, y: float, area: float) -> Blob:
+    return Blob(frame, 1, area, x, y, False)
+
+
+def test_pieces_of_one_body_count_as_one_body() -> None:
+    # the original renderer's eyes cut a large triangle into an apex (44 px) and a base (140 px) 11 px apart, in
+    # most frames of a video: the colour holds one body, and that body is tracked in every frame
+    frames = 40
+    pieces = [b for k in range(frames) for b in (_blob(k, 100.0 + k, 69.0, 44.0), _blob(k, 100.4 + k, 80.1, 140.0))]
+    assert count_per_color(pieces, frames) == {1: 1}
+    (body,) = track(pieces, frames)
+    assert len(body.seen()) == frames
+
+
+def test_two_bodies_of_one_colour_apart_count_as_two() -> None:
+    frames = 40
+    apart = [b for k in range(frames) for b in (_blob(k, 60.0, 100.0, 56.0), _blob(k, 60.0 + k, 130.0, 140.0))]
+    assert count_per_color(apart, frames) == {1: 2}
+    # side by side in every frame (centres nearer than the square root of the summed area), they read as one
+    close = [b for k in range(frames) for b in (_blob(k, 60.0, 100.0, 56.0), _blob(k, 60.0, 112.0, 140.0))]
+    assert count_per_color(close, frames) == {1: 1}
