@@ -14,6 +14,7 @@ import functools
 import math
 import operator
 import re
+import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -174,7 +175,9 @@ def parse_expression(source: str) -> Expr:
         raise ExpressionError(f"expression longer than {_MAX_EXPRESSION_LENGTH} characters: "
                               f"{source[:40]!r}...")
     try:
-        tree = ast.parse(source.strip(), mode="eval")
+        with warnings.catch_warnings():  # "1if x" parses with a warning: refuse it like any other bad expression
+            warnings.simplefilter("error", SyntaxWarning)
+            tree = ast.parse(source.strip(), mode="eval")
     except SyntaxError as exc:
         raise ExpressionError(f"cannot parse expression {source!r}: {exc.msg}") from None
     names: list[str] = []

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -524,6 +525,13 @@ def test_expression_rejects_unsafe_or_unsupported(text: str) -> None:
     with pytest.raises(ExpressionError) as info:
         evaluate_expression(text, {"x": 1.0})
     assert repr(text) in str(info.value) or "cannot parse" in str(info.value)
+
+
+def test_an_expression_python_parses_only_with_a_warning_is_refused_without_one() -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a SyntaxWarning escaping the parser would fail here
+        with pytest.raises(ExpressionError, match="cannot parse expression '1if x else 2': invalid decimal literal"):
+            evaluate_expression("1if x else 2", {"x": 1.0})
 
 
 def test_expression_runtime_errors_are_clear() -> None:
