@@ -40,8 +40,8 @@ MIN_FRAMES = 6
 SUBSTANTIAL_AREA = 16.0
 #: Two blobs of one colour in a frame are pieces of one body when their centres are nearer than this times the
 #: square root of their summed area. Measured: the apex and base of a large triangle cut by the original renderer's
-#: eyes, 0.74-0.83; over 99 held-out videos of both renderers no colour's count fell under its number of bodies
-#: (bodies of one colour are further apart than this in enough frames), and 49 -> 58 were counted exactly.
+#: eyes, 0.74-0.83; over 167 held-out videos of both renderers no colour's count fell under its number of bodies
+#: (bodies of one colour are further apart than this in enough frames), and 64 -> 79 were counted exactly.
 PIECE_DISTANCE = 1.0
 #: Window (pixels) of the full-resolution measurement.
 WINDOW = 48
