@@ -40,6 +40,7 @@ import numpy as np
 
 from ..errors import ReaderError
 from ..render.raster import SIM_FPS
+from ..render.video import MPEG_FRAME_RATES
 
 Decoder = Literal["auto", "pyav", "ffmpeg"]
 DECODERS: tuple[str, ...] = ("auto", "pyav", "ffmpeg")
@@ -194,12 +195,6 @@ def incomplete(path: str | os.PathLike[str], frames: int) -> str | None:
 RUN_STEPS = 600
 #: Rates a frame count is rounded up to when no rate is stated: the divisors of 60 and the usual video rates.
 COMMON_RATES: tuple[int, ...] = (1, 2, 3, 4, 5, 6, 10, 12, 15, 20, 24, 25, 30, 50, 60)
-#: MPEG-1/2 sequence header frame rate codes (ISO 11172-2, and the extra codes 9-13 FFmpeg writes when asked for a
-#: rate the standard lacks).
-MPEG_FRAME_RATES: dict[int, Fraction] = {
-    1: Fraction(24000, 1001), 2: Fraction(24), 3: Fraction(25), 4: Fraction(30000, 1001), 5: Fraction(30),
-    6: Fraction(50), 7: Fraction(60000, 1001), 8: Fraction(60), 9: Fraction(15), 10: Fraction(5), 11: Fraction(10),
-    12: Fraction(12), 13: Fraction(15)}
 #: Bytes searched for an MPEG sequence header.
 _HEADER_SEARCH = 1 << 16
 

@@ -98,9 +98,14 @@ def _frames_to_yuv420(frames: Iterable[np.ndarray], size: int, chunk: int = 60) 
         previous = rgb[-1]
 
 
-#: The frame rates an MPEG-1 stream can state (its frame-rate codes 1-8).
-MPEG1_RATES: frozenset[Fraction] = frozenset({Fraction(24000, 1001), Fraction(24), Fraction(25), Fraction(30000, 1001),
-                                              Fraction(30), Fraction(50), Fraction(60000, 1001), Fraction(60)})
+#: MPEG-1/2 sequence header frame rate codes (ISO 11172-2, and the extra codes 9-13 FFmpeg writes when asked for a
+#: rate the standard lacks).
+MPEG_FRAME_RATES: dict[int, Fraction] = {
+    1: Fraction(24000, 1001), 2: Fraction(24), 3: Fraction(25), 4: Fraction(30000, 1001), 5: Fraction(30),
+    6: Fraction(50), 7: Fraction(60000, 1001), 8: Fraction(60), 9: Fraction(15), 10: Fraction(5), 11: Fraction(10),
+    12: Fraction(12), 13: Fraction(15)}
+#: The frame rates an MPEG-1 stream can state (the standard's codes 1-8).
+MPEG1_RATES: frozenset[Fraction] = frozenset(rate for code, rate in MPEG_FRAME_RATES.items() if code <= 8)
 
 
 def write_yuv420(planes: Iterable[np.ndarray], path: str | os.PathLike[str], fps: float = SIM_FPS,
