@@ -45,6 +45,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from reader_calibration import reliability
 
 from craft_dsl.cli import main as cli_main
 from craft_dsl.errors import CraftError
@@ -328,15 +329,11 @@ def report(root: Path, results: list[dict[str, Any]], parts: dict[str, set[tuple
     lines += ["### Perception", "", "| metric | value |", "|---|---|"]
     pairs = [(p, ok_) for r in ok for p, ok_ in r.get("confidence", [])]
     if pairs:
-        bins = ((0.0, 0.5), (0.5, 0.9), (0.9, 0.99), (0.99, 0.999), (0.999, 1.01))
-        cells, gap = [], 0.0
-        for lo, hi in bins:
-            inside = [(p, c) for p, c in pairs if lo <= p < hi]
-            if inside:
-                mean_p = float(np.mean([p for p, _ in inside]))
-                acc = float(np.mean([c for _, c in inside]))
-                gap += len(inside) * abs(mean_p - acc)
-                cells.append(f"[{lo:g}, {min(hi, 1):g}): {len(inside)} objects, stated {mean_p:.3f}, right {acc:.3f}")
+        stated, right = [p for p, _ in pairs], [c for _, c in pairs]
+        bins = reliability(stated, right, edges=(0.0, 0.5, 0.9, 0.99, 0.999, 1.01))
+        cells = [f"[{lo:g}, {min(hi, 1):g}): {k} objects, stated {mean_p:.3f}, right {acc:.3f}"
+                 for lo, hi, k, mean_p, acc in bins]
+        gap = sum(k * abs(mean_p - acc) for _lo, _hi, k, mean_p, acc in bins)
         perception["calibration of the stated attribute probability (bins)"] = "; ".join(cells)
         perception["expected calibration error"] = f"{gap / len(pairs):.4f}"
     lines += [f"| {k} | {v} |" for k, v in perception.items()]

@@ -53,18 +53,25 @@ class Labelled:
     template_id: str
 
 
-def reliability(confidence: Sequence[float], correct: Sequence[bool], bins: int = BINS
-                ) -> list[tuple[float, float, int, float, float]]:
-    """Equal-width bins of ``confidence`` over [0, 1] (the last one closed): ``(low, high, answers, mean
-    confidence, accuracy)`` for each bin that holds an answer."""
+def reliability(confidence: Sequence[float], correct: Sequence[bool], bins: int = BINS,
+                edges: Sequence[float] | None = None) -> list[tuple[float, float, int, float, float]]:
+    """Equal-width bins of ``confidence`` over [0, 1] (the last one closed), or the bins [edges[i], edges[i + 1])
+    where ``edges`` are given: ``(low, high, answers, mean confidence, accuracy)`` for each bin that holds an
+    answer."""
     c = np.asarray(confidence, dtype=float)
     y = np.asarray(correct, dtype=float)
-    index = np.minimum((c * bins).astype(int), bins - 1)
+    if edges is None:
+        bounds = [b / bins for b in range(bins + 1)]
+        index = np.minimum((c * bins).astype(int), bins - 1)
+    else:
+        bounds = list(edges)
+        index = np.searchsorted(np.asarray(bounds), c, side="right") - 1
     out = []
-    for b in range(bins):
+    for b in range(len(bounds) - 1):
         inside = index == b
         if inside.any():
-            out.append((b / bins, (b + 1) / bins, int(inside.sum()), float(c[inside].mean()), float(y[inside].mean())))
+            out.append((bounds[b], bounds[b + 1], int(inside.sum()), float(c[inside].mean()),
+                        float(y[inside].mean())))
     return out
 
 
