@@ -20,7 +20,9 @@ by running the physics engine itself:
 4. **Re-anchoring.** Chaotic contacts amplify the last digits of any start: a body that still strays is restarted a
    few frames before, its state there (position, angle, velocity, spin, with those of the other bodies that stray)
    fitted to the next frames by Levenberg-Marquardt, and the run goes on from there (:func:`reanchor`,
-   :func:`stitch`), as long as each restart pushes the first stray later.
+   :func:`stitch`), as long as each restart pushes the first stray later. A restart stays physical: no body is
+   restarted sunk into a static or another body (:func:`overlaps`), where the engine's push back out would be a
+   collision the video never showed.
 
 Time: frame ``k`` of the video shows the state after ``rows[k]`` steps (``k + 1`` at 60 fps; every 6th step at
 10 fps, :func:`craft_dsl.reader.video.steps_shown`); the runs are compared with the observations at those steps.
@@ -47,6 +49,7 @@ from scipy.optimize import linear_sum_assignment
 
 from ..physics.engine import ContactLog, PhysicsEngine, RawRun, splice
 from ..physics.live import LiveSimulation, get_engine
+from ..physics.pymunk_engine import PymunkEngine
 from ..render.raster import SIM_FPS, Y_MAX, world_to_pixel
 from ..scenes import Choice, Uniform
 from ..simulation import Trajectory
@@ -97,6 +100,13 @@ ANCHOR_WINDOW = 36
 #: (the stray may have begun at a bounce some frames before it shows); where neither brings the run back, restarts
 #: after the stray (negative: frames forward), which give up the frames between and keep the rest of the video.
 ANCHOR_TRIES: tuple[tuple[int, int], ...] = ((ANCHOR_BACK, ANCHOR_WINDOW), (16, 24), (-12, 36), (-36, 36))
+#: A restarted body may overlap the others (statics and bodies) by this much (metres) beyond where the run it
+#: replaces had it (resting contacts sink a few millimetres into their skins); a fitted restart that sinks it deeper
+#: is drawn back towards the old pose until it does not (:func:`_physical`, OVERLAP_BISECTIONS halvings): the engine
+#: would push the body out in its first step, a collision the video never showed (a body resting on the basket's
+#: floor, restarted 0.1 m low, hits the ground below it).
+OVERLAP_SLACK = 0.02
+OVERLAP_BISECTIONS = 6
 ANCHOR_MOVER_PX = 1.0
 ANCHOR_ITERATIONS = 5
 MAX_ANCHORS = 6
@@ -567,6 +577,27 @@ def _state_world(world: WorldSpec, traj: Trajectory, row: int, offsets: Mapping[
     return replace(world, bodies=tuple(bodies))
 
 
+_GEOMETRY = PymunkEngine()
+
+
+def overlaps(world: WorldSpec, uids: Sequence[int]) -> np.ndarray:
+    """How deep (metres, 0 where apart or touching) each body of ``uids`` overlaps any other body of ``world``
+    (statics and dynamic bodies at their positions there; sensors do not count)."""
+    space, bodies, _tags = _GEOMETRY.build_space(world)
+    depth = np.zeros(len(uids))
+    for i, uid in enumerate(uids):
+        body = bodies[uid]
+        for shape in body.shapes:
+            if shape.sensor:
+                continue
+            for hit in space.shape_query(shape):
+                if hit.shape is None or hit.shape.sensor or hit.shape.body is body:
+                    continue
+                for point in hit.contact_point_set.points:  # a penetration (pymunk signs it by the pair's order)
+                    depth[i] = max(depth[i], abs(point.distance))
+    return depth
+
+
 def _shift_log(log: ContactLog, row: int, steps: int) -> ContactLog:
     """A log of a run started at ``row``, in the frames of the whole run."""
     return ContactLog(steps, {k: tuple((s + row, e + row) for s, e in v) for k, v in log.contacts.items()},
@@ -596,8 +627,9 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
              ) -> LiveSimulation | None:
     """Restart the bodies that stray from the video a few frames before ``first_stray``, their state there fitted
     to the next :data:`ANCHOR_WINDOW` frames (Gauss-Newton on position, angle, velocity and spin of each), and run on
-    to the end. ``back`` and ``window`` are frames at 60 fps (:func:`anchor_frames` converts them). None when the fit
-    does not follow the window better than the run it replaces."""
+    to the end. ``back`` and ``window`` are frames at 60 fps (:func:`anchor_frames` converts them). Each trial state
+    is made physical first (:func:`_physical`: no body sunk into another beyond :data:`OVERLAP_SLACK` more than the
+    replaced run had it). None when the fit does not follow the window better than the run it replaces."""
     steps = sim.raw.log.steps
     back, window = anchor_frames(fit.rows, back, window)
     row = max(1, first_stray - back)
@@ -618,6 +650,7 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
     if not movers:
         return None
     obs = {s: o[row:end] for s, o in fit.observed.items()}
+    allowed = overlaps(_state_world(world, traj, start, {}), movers) + OVERLAP_SLACK
 
     def residual(params: np.ndarray) -> np.ndarray:
         offsets = {uid: params[6 * i:6 * i + 6] for i, uid in enumerate(movers)}
@@ -653,7 +686,7 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
         step = np.clip(np.linalg.solve(damped, -np.einsum("ij,i->j", jac, r)), -limit, limit)
         improved = False
         for alpha in (1.0, 0.5, 0.25, 0.1):
-            trial = params + alpha * step
+            trial = _physical(world, traj, start, movers, params + alpha * step, allowed)
             rt = residual(trial)
             ct = float(rt @ rt)
             if ct < cost:
@@ -667,6 +700,29 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
     tail = eng.run(_state_world(world, traj, start, offsets), steps - start)
     raw = stitch(sim.raw, tail, start)
     return LiveSimulation(world, raw, eng, meta=dict(sim.meta, anchors=sim.meta.get("anchors", 0) + 1))
+
+
+def _physical(world: WorldSpec, traj: Trajectory, start: int, movers: Sequence[int], params: np.ndarray,
+              allowed: np.ndarray) -> np.ndarray:
+    """``params`` (restart offsets of ``movers``, 6 each) with the pose offset (position, angle) of each mover that
+    would overlap the others deeper than ``allowed`` scaled back towards zero until it does not (bisection)."""
+    params = params.copy()
+
+    def depth(i: int, scale: float) -> float:
+        trial = params.copy()
+        trial[6 * i:6 * i + 3] *= scale
+        offsets = {uid: trial[6 * j:6 * j + 6] for j, uid in enumerate(movers)}
+        return float(overlaps(_state_world(world, traj, start, offsets), [movers[i]])[0])
+
+    for i in range(len(movers)):
+        if depth(i, 1.0) <= allowed[i]:
+            continue
+        lo, hi = 0.0, 1.0  # lo: within the allowance (the old pose is), hi: beyond it
+        for _ in range(OVERLAP_BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if depth(i, mid) <= allowed[i] else (lo, mid)
+        params[6 * i:6 * i + 3] *= lo
+    return params
 
 
 def anchor_frames(rows: np.ndarray, back: int, window: int) -> tuple[int, int]:
