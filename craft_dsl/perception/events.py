@@ -139,6 +139,19 @@ class GeometryProbe:
                         out.add(pair_key(ua, pa, ub, pb))
         return out
 
+    def overlap_depths(self, uids: Sequence[int]) -> np.ndarray:
+        """How deep (metres, 0 where apart or touching) each body of ``uids`` overlaps any other body, in the
+        current placement (the shapes as the probe's tolerance inflates them)."""
+        depth = np.zeros(len(uids))
+        for i, uid in enumerate(uids):
+            for shape in self.contact_shapes[uid]:
+                for hit in self.space.shape_query(shape):
+                    if self.tags[hit.shape][0] == uid:
+                        continue
+                    for point in hit.contact_point_set.points:  # a penetration (pymunk signs it by the pair's order)
+                        depth[i] = max(depth[i], abs(point.distance))
+        return depth
+
     def in_sensor(self) -> set[SensorKey]:
         """Every (basket, body) overlap in the current placement."""
         out: set[SensorKey] = set()

@@ -47,9 +47,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from ..perception.events import GeometryProbe
 from ..physics.engine import ContactLog, PhysicsEngine, RawRun, splice
 from ..physics.live import LiveSimulation, get_engine
-from ..physics.pymunk_engine import PymunkEngine
 from ..render.raster import SIM_FPS, Y_MAX, world_to_pixel
 from ..scenes import Choice, Uniform
 from ..simulation import Trajectory
@@ -577,25 +577,21 @@ def _state_world(world: WorldSpec, traj: Trajectory, row: int, offsets: Mapping[
     return replace(world, bodies=tuple(bodies))
 
 
-_GEOMETRY = PymunkEngine()
-
-
 def overlaps(world: WorldSpec, uids: Sequence[int]) -> np.ndarray:
     """How deep (metres, 0 where apart or touching) each body of ``uids`` overlaps any other body of ``world``
     (statics and dynamic bodies at their positions there; sensors do not count)."""
-    space, bodies, _tags = _GEOMETRY.build_space(world)
-    depth = np.zeros(len(uids))
-    for i, uid in enumerate(uids):
-        body = bodies[uid]
-        for shape in body.shapes:
-            if shape.sensor:
-                continue
-            for hit in space.shape_query(shape):
-                if hit.shape is None or hit.shape.sensor or hit.shape.body is body:
-                    continue
-                for point in hit.contact_point_set.points:  # a penetration (pymunk signs it by the pair's order)
-                    depth[i] = max(depth[i], abs(point.distance))
-    return depth
+    return GeometryProbe(world).overlap_depths(uids)
+
+
+def _place(probe: GeometryProbe, traj: Trajectory, row: int, offsets: Mapping[int, np.ndarray]) -> None:
+    """The probe's dynamic bodies at their pose of ``row`` plus ``offsets[uid]`` (as :func:`_state_world`)."""
+    columns = {uid: traj.column(uid) for uid in probe.dynamic}
+    positions = traj.positions[row].copy()
+    angles = traj.angles[row].copy()
+    for uid, d in offsets.items():
+        positions[columns[uid]] += d[:2]
+        angles[columns[uid]] += d[2]
+    probe.place(positions, angles, columns)
 
 
 def _shift_log(log: ContactLog, row: int, steps: int) -> ContactLog:
@@ -650,7 +646,9 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
     if not movers:
         return None
     obs = {s: o[row:end] for s, o in fit.observed.items()}
-    allowed = overlaps(_state_world(world, traj, start, {}), movers) + OVERLAP_SLACK
+    probe = GeometryProbe(world)
+    _place(probe, traj, start, {})
+    allowed = probe.overlap_depths(movers) + OVERLAP_SLACK
 
     def residual(params: np.ndarray) -> np.ndarray:
         offsets = {uid: params[6 * i:6 * i + 6] for i, uid in enumerate(movers)}
@@ -686,7 +684,7 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
         step = np.clip(np.linalg.solve(damped, -np.einsum("ij,i->j", jac, r)), -limit, limit)
         improved = False
         for alpha in (1.0, 0.5, 0.25, 0.1):
-            trial = _physical(world, traj, start, movers, params + alpha * step, allowed)
+            trial = _physical(probe, traj, start, movers, params + alpha * step, allowed)
             rt = residual(trial)
             ct = float(rt @ rt)
             if ct < cost:
@@ -702,7 +700,7 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
     return LiveSimulation(world, raw, eng, meta=dict(sim.meta, anchors=sim.meta.get("anchors", 0) + 1))
 
 
-def _physical(world: WorldSpec, traj: Trajectory, start: int, movers: Sequence[int], params: np.ndarray,
+def _physical(probe: GeometryProbe, traj: Trajectory, start: int, movers: Sequence[int], params: np.ndarray,
               allowed: np.ndarray) -> np.ndarray:
     """``params`` (restart offsets of ``movers``, 6 each) with the pose offset (position, angle) of each mover that
     would overlap the others deeper than ``allowed`` scaled back towards zero until it does not (bisection)."""
@@ -711,8 +709,8 @@ def _physical(world: WorldSpec, traj: Trajectory, start: int, movers: Sequence[i
     def depth(i: int, scale: float) -> float:
         trial = params.copy()
         trial[6 * i:6 * i + 3] *= scale
-        offsets = {uid: trial[6 * j:6 * j + 6] for j, uid in enumerate(movers)}
-        return float(overlaps(_state_world(world, traj, start, offsets), [movers[i]])[0])
+        _place(probe, traj, start, {uid: trial[6 * j:6 * j + 6] for j, uid in enumerate(movers)})
+        return float(probe.overlap_depths([movers[i]])[0])
 
     for i in range(len(movers)):
         if depth(i, 1.0) <= allowed[i]:
