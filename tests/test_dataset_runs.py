@@ -79,11 +79,17 @@ def _assert_gone(pids: list[int], timeout: float = 10.0) -> None:
     assert not [p for p in pids if _alive(p)], "a child process outlived the main process"
 
 
-def _wait_for_log(out: Path, text: str, timeout: float = 120.0) -> bool:
+def _log_size(out: Path) -> int:
+    log = out / P.LOG_FILE
+    return log.stat().st_size if log.is_file() else 0
+
+
+def _wait_for_log(out: Path, text: str, since: int = 0, timeout: float = 120.0) -> bool:
+    """Whether ``text`` appears in the log after its first ``since`` bytes (what earlier runs wrote) in time."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         log = out / P.LOG_FILE
-        if log.is_file() and text in log.read_text():
+        if log.is_file() and text in log.read_bytes()[since:].decode("utf-8", "replace"):
             return True
         time.sleep(0.05)
     return False
@@ -115,8 +121,9 @@ def test_sigkill_at_random_moments_then_resume(reference: Path, tmp_path: Path) 
     rng = random.Random(12)
     for attempt in range(3):
         before = _finished_work(out) if out.exists() else (0, 0)
+        since = _log_size(out)
         proc = _start(out, workers=2 if attempt != 1 else 1)
-        assert _wait_for_log(out, f"start: 6 videos, {before[0]} already done"), proc.communicate()
+        assert _wait_for_log(out, f"start: 6 videos, {before[0]} already done", since), proc.communicate()
         if attempt:
             run = _run_lines(out)
             assert not any(f"merged scene {s} " in line for line in run for s in (1, 2, 3)[:before[1]]), run
@@ -146,8 +153,9 @@ def test_sigkill_with_videos_then_resume(tmp_path: Path) -> None:
     out = tmp_path / "run"
     # killed while the first videos are encoded, then (resumed with one worker) as soon as scene 1 is merged
     for attempt, (workers, mark, wait) in enumerate([(2, "start: 6 videos", 0.3), (1, "merged scene 1 ", 0.0)]):
+        since = _log_size(out)
         proc = _start(out, workers, "--videos")
-        assert _wait_for_log(out, mark), proc.communicate()
+        assert _wait_for_log(out, mark, since), proc.communicate()
         time.sleep(wait)
         children = _children(proc.pid)
         proc.kill()
