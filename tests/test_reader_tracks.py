@@ -6,10 +6,21 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from craft_dsl.reader.detect import Blob, blobs, grid_labels, grid_rims
-from craft_dsl.reader.track import TrackedObject, classify_shape, count_per_color, relink_merges, track
+from craft_dsl.reader.detect import PALETTE, Blob, blobs, grid_labels, grid_rims
+from craft_dsl.reader.track import (
+    IMPURE_WEIGHT,
+    TrackedObject,
+    classify_shape,
+    count_per_color,
+    is_pure,
+    purity,
+    relink_merges,
+    select_objects,
+    track,
+)
 from craft_dsl.render import frames as render_frames
 from craft_dsl.render.raster import static_layer
+from craft_dsl.vocabulary import COLORS
 from craft_dsl.world import WorldSpec, assign_uids, make_dynamic, make_static
 from tests.synthetic_scene import simulation_from_rows
 
@@ -90,3 +101,36 @@ def test_two_bodies_of_one_colour_apart_count_as_two() -> None:
     # side by side in every frame (centres nearer than the square root of the summed area), they read as one
     close = [b for k in range(frames) for b in (_blob(k, 60.0, 100.0, 56.0), _blob(k, 60.0, 112.0, 140.0))]
     assert count_per_color(close, frames) == {1: 1}
+
+
+def _still_track(color: str, core: tuple[float, float, float], frames: int, area: float, x: int
+                 ) -> tuple[TrackedObject, np.ndarray]:
+    """A track of one small blob at column ``x`` in every frame, and a strip of frames whose pixels there have the
+    colour ``core``."""
+    picture = np.full((frames, 32, 64, 3), 255, dtype=np.uint8)
+    picture[:, 10:22, x - 6:x + 6] = np.array(core, dtype=np.uint8)
+    c = COLORS.index(color)
+    return TrackedObject(c, [Blob(k, c, area, float(x), 16.0, False) for k in range(frames)]), picture
+
+
+def test_purity_falls_with_the_core_colour_s_distance_from_the_palette() -> None:
+    blue = tuple(float(v) for v in PALETTE[COLORS.index("blue")])
+    weights = []
+    for shift in (0.0, 40.0, 95.0):
+        obj, picture = _still_track("blue", (blue[0], blue[1], blue[2] - shift), 4, 30.0, 32)
+        weights.append(purity(obj, picture))
+    assert weights[0] == 1.0 and is_pure(*_still_track("blue", blue, 4, 30.0, 32))
+    assert IMPURE_WEIGHT * 0.9 < weights[1] <= IMPURE_WEIGHT
+    assert weights[2] < 0.1 * weights[1]
+
+
+def test_a_softened_small_body_outranks_the_gray_ring_of_another_body_s_eye() -> None:
+    """Rescaled from a small video, a small blue body's core is off its colour (both tracks impure) and a large
+    body's eye leaves a gray ring, seen in more frames and larger: the body is kept, the ring is not."""
+    blue = PALETTE[COLORS.index("blue")]
+    body, left = _still_track("blue", (float(blue[0]), float(blue[1]), float(blue[2]) - 40.0), 180, 32.0, 16)
+    ring, right = _still_track("gray", (125.0, 171.0, 120.0), 200, 60.0, 48)
+    picture = np.where(np.arange(64)[None, None, :, None] < 32, left[:180], right[:180])
+    body.blobs = body.blobs + [None] * 20
+    frames = np.concatenate([picture, right[180:]])
+    assert select_objects([ring, body], 1, frames) == [body]

@@ -43,7 +43,7 @@ from .track import (
     track,
     verify_shape,
 )
-from .video import Decoder, FrameRate, checked_rate, decode, frame_rate, steps_shown
+from .video import Decoder, FrameRate, checked_rate, decode_sized, frame_rate, steps_shown
 
 
 @dataclass
@@ -80,13 +80,15 @@ def frame_steps_of(frames: int, fps: float | None = None, frame_steps: Sequence[
 def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[str, float] | None = None,
                     engines: Sequence[str] | None = None, fps: float | None = None,
                     frame_steps: Sequence[int] | np.ndarray | None = None,
-                    rate: FrameRate | None = None) -> Perception:
+                    rate: FrameRate | None = None, source_size: int | None = None) -> Perception:
     """Perceive decoded frames uint8 [T, H, W, 3] (``scene``: skip the identification). ``engines``: the physics
     engines to reconstruct the motion with (default :func:`~craft_dsl.reader.reconstruct.reader_engines`: Box2D
     first where the statics' edges are aliased, as the original CRAFT renderer draws them); the
     reconstruction that follows the frames best is kept (:func:`~craft_dsl.reader.reconstruct.reconstruct_best`).
     ``fps`` (default 60) or ``frame_steps`` (the step each frame shows, for any other timing) say when the frames
-    were taken; ``rate`` only records where ``fps`` came from."""
+    were taken; ``rate`` only records where ``fps`` came from. ``source_size``: the video's own frame size when the
+    frames were rescaled to the reader's size as they were decoded (a smaller video's bodies look smaller and softer,
+    see :func:`~craft_dsl.reader.track.shape_features`)."""
     given, rows = frame_steps_of(len(frames), fps, frame_steps)
     rate = rate if rate is not None else given
     times = timings if timings is not None else {}
@@ -99,6 +101,8 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     found = blobs(grid_labels(frames, background), grid_rims(background))
     objects = select_objects(merge_colour_splits(track(found, len(frames), steps=rows), rows),
                              len(model.layout.dynamic), frames)
+    for obj in objects:
+        obj.source_size = source_size if source_size is not None and source_size != frames.shape[1] else None
     relink_merges(objects, frames, background)
     for obj in objects:
         classify_shape(obj, frames, background)
@@ -180,7 +184,8 @@ def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scen
     (:func:`~craft_dsl.reader.video.frame_rate`) unless ``fps`` or ``frame_steps`` state it."""
     timings: dict[str, float] = {}
     t = time.perf_counter()
-    frames = decode(path, decoder, size=DEFAULT_SIZE)  # a video of another size is read at the reader's size
+    frames, source = decode_sized(path, decoder, size=DEFAULT_SIZE)  # another size is read at the reader's size
     rate = frame_rate(path, len(frames)) if fps is None and frame_steps is None else None
     timings["decode"] = time.perf_counter() - t
-    return perceive_frames(frames, scene, timings, engines, rate.fps if rate is not None else fps, frame_steps, rate)
+    return perceive_frames(frames, scene, timings, engines, rate.fps if rate is not None else fps, frame_steps, rate,
+                           source_size=source)

@@ -31,11 +31,13 @@ _STEP_RAD = 0.01
 
 
 def refine(frames: np.ndarray, background: np.ndarray, shape: str, size: str, color: int,
-           which: Sequence[int], x: np.ndarray, y: np.ndarray, angle: np.ndarray
+           which: Sequence[int], x: np.ndarray, y: np.ndarray, angle: np.ndarray, blur: float = 0.0
            ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Centre (pixels) and angle of the body in frames ``which`` from a first guess; also the RMS residual per frame
     (grey levels), which is small when the guessed shape and size are right. Frames whose window leaves the
-    picture are returned unchanged with an infinite residual."""
+    picture are returned unchanged with an infinite residual. ``blur``: Gaussian sigma (pixels) by which the
+    frames are softer than the renderer draws (a video rescaled from a smaller size): the drawing is blurred as
+    much before it is compared."""
     n_frames, h, w_img = frames.shape[:3]
     geometry = dynamic_geometry(shape, size)
     extent = (geometry.circle_radius or max(math.hypot(px, py) for poly in geometry.polygons for px, py in poly))
@@ -66,7 +68,8 @@ def refine(frames: np.ndarray, background: np.ndarray, shape: str, size: str, co
 
     def draw(cx: np.ndarray, cy: np.ndarray, ang: np.ndarray) -> np.ndarray:
         alpha, base = shade_body(geometry, name, cx, cy, ang, x0[k], y0[k], win, w_img)
-        return bg * (1.0 - alpha[..., None]) + base
+        drawn = bg * (1.0 - alpha[..., None]) + base
+        return ndi.gaussian_filter(drawn, (0, blur, blur, 0)) if blur > 0 else drawn
 
     cx, cy, ang = x[k], y[k], a[k]
     for sigma in BLUR:

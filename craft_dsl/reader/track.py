@@ -16,8 +16,10 @@ between (from its last two sightings) before the assignment; at 60 fps the last 
 
 Shape and size come from the full-resolution measurement (:mod:`craft_dsl.reader.measure`) of the frames where the
 body is complete: the median area, the largest radius over the square root of the area, and the normalised second
-moment, against the values each (shape, size) gives (calibrated on generated videos, :data:`SHAPE_FEATURES`). The
-per-frame likelihoods make the probabilities (a Student-t model, so that one bad frame cannot decide).
+moment, against the values each (shape, size) gives (calibrated on generated videos, :data:`SHAPE_FEATURES`; for a
+video drawn smaller and rescaled as it was decoded, :func:`shape_features`, whose bodies measure smaller and whose
+drawing render-and-compare blurs, :func:`source_blur`). The per-frame likelihoods make the probabilities (a Student-t
+model, so that one bad frame cannot decide).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..render.raster import DEFAULT_SIZE
 from ..vocabulary import COLORS, SHAPES, SIZES
 from .detect import GRAY, PALETTE, Blob
 from .measure import Measurement, measure
@@ -46,7 +49,7 @@ PIECE_DISTANCE = 1.0
 #: Window (pixels) of the full-resolution measurement.
 WINDOW = 48
 #: (shape, size) -> median and spread of the measured (area px^2, radius / sqrt(area), second moment / area) of a
-#: complete body, from generated MPEG-1 videos (dev seeds; ``benchmarks/reader.py --calibrate`` recomputes them).
+#: complete body, from generated MPEG-1 videos (dev seeds).
 SHAPE_FEATURES: dict[tuple[str, str], tuple[tuple[float, float, float], tuple[float, float, float]]] = {
     ("circle", "large"): ((329.8, 0.552, 0.1599), (1.3, 0.007, 0.0002)),
     ("circle", "small"): ((44.8, 0.682, 0.2006), (4.1, 0.079, 0.0118)),
@@ -55,8 +58,56 @@ SHAPE_FEATURES: dict[tuple[str, str], tuple[tuple[float, float, float], tuple[fl
     ("triangle", "large"): ((306.7, 0.808, 0.1930), (2.0, 0.005, 0.0005)),
     ("triangle", "small"): ((127.5, 0.820, 0.2140), (13.8, 0.056, 0.0128)),
 }
+#: The same for a video drawn at 128 px and read at :data:`DEFAULT_SIZE` (rescaled as it is decoded): blurred edges
+#: fall outside the palette's colours, so bodies measure smaller, small ones most (a small triangle 61 px^2 instead of
+#: 118). Medians and robust spreads (1.4826 x median absolute deviation, at least the native spread) of 299 bodies of
+#: the 108 test videos of a generated dataset (seed 3131) copied at 128 px by ffmpeg's ``scale`` (bicubic), lossless
+#: H.264: ``python benchmarks/shape_features.py --dataset DIR --size 128``.
+SHAPE_FEATURES_128: dict[tuple[str, str], tuple[tuple[float, float, float], tuple[float, float, float]]] = {
+    ("circle", "large"): ((294.4, 0.5642, 0.1619), (17.0, 0.0199, 0.0011)),
+    ("circle", "small"): ((29.6, 0.6016, 0.2025), (6.9, 0.0790, 0.0118)),
+    ("cube", "large"): ((373.2, 0.6361, 0.1667), (19.7, 0.0200, 0.0030)),
+    ("cube", "small"): ((38.8, 0.6288, 0.2049), (7.0, 0.0543, 0.0144)),
+    ("triangle", "large"): ((255.7, 0.7600, 0.1950), (21.7, 0.0254, 0.0044)),
+    ("triangle", "small"): ((61.2, 0.7930, 0.2411), (16.7, 0.0625, 0.0174)),
+}
+#: Blur (pixels, Gaussian sigma at :data:`DEFAULT_SIZE`) that a video drawn at 128 px has once rescaled: the drawing
+#: that render-and-compare fits is blurred as much (see :func:`source_blur`). On the copies above, the residual picks
+#: the right shape of 53 of 78 small bodies drawn sharp, 67-71 blurred by 0.9-1.5 (lowest median residual at 1.3).
+BLUR_128 = 1.2
 #: Spreads are widened by this factor (compression noise varies between videos).
 SPREAD_FACTOR = 3.0
+
+FeatureTable = dict[tuple[str, str], tuple[tuple[float, float, float], tuple[float, float, float]]]
+
+
+def _upscaling(source_size: int | None) -> float:
+    """0 for a video read at its own size (or larger), 1 for one drawn at half the read size (128 px) or less,
+    in between for the sizes between (linear in the scale factor)."""
+    if source_size is None or source_size >= DEFAULT_SIZE:
+        return 0.0
+    return min(DEFAULT_SIZE / source_size - 1.0, 1.0)
+
+
+def shape_features(source_size: int | None = None) -> FeatureTable:
+    """The (shape, size) feature table for frames drawn at ``source_size`` px and read at :data:`DEFAULT_SIZE`: the
+    native table, the 128-px one, or between the two (centres and spreads interpolated)."""
+    t = _upscaling(source_size)
+    if t == 0.0:
+        return SHAPE_FEATURES
+    if t == 1.0:
+        return SHAPE_FEATURES_128
+
+    def mix(a: tuple[float, float, float], b: tuple[float, float, float]) -> tuple[float, float, float]:
+        return (a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2]))
+
+    return {key: (mix(SHAPE_FEATURES[key][0], SHAPE_FEATURES_128[key][0]),
+                  mix(SHAPE_FEATURES[key][1], SHAPE_FEATURES_128[key][1])) for key in SHAPE_FEATURES}
+
+
+def source_blur(source_size: int | None = None) -> float:
+    """The blur (Gaussian sigma, pixels at :data:`DEFAULT_SIZE`) that rescaling from ``source_size`` px adds."""
+    return BLUR_128 * _upscaling(source_size)
 #: Measured centroid minus the body's centre, in the body's frame (pixels, x right and y up at angle 0): the colour
 #: mask misses what the eyes cover (calibrated on generated MPEG-1 videos; large bodies have none to speak of).
 EYE_BIAS: dict[tuple[str, str], tuple[float, float]] = {
@@ -85,6 +136,7 @@ class TrackedObject:
     measurements: dict[int, Measurement] = field(default_factory=dict)  # full-resolution, by frame
     poses: dict[int, tuple[float, float, float]] = field(default_factory=dict)  # render-and-compare (x, y, angle)
     pose_shape: tuple[str, str] | None = None  # the (shape, size) the poses were fitted as
+    source_size: int | None = None  # the video's frame size before it was rescaled to DEFAULT_SIZE (None: not rescaled)
 
     @property
     def color_name(self) -> str:
@@ -333,7 +385,7 @@ def _side_log_likelihoods(obj: TrackedObject, frames: np.ndarray, background: np
     features = _features(obj, pick)
     if len(features) < RELINK_MIN_FRAMES:
         return None
-    return np.array(list(_log_likelihoods(features).values()))
+    return np.array(list(_log_likelihoods(features, shape_features(obj.source_size)).values()))
 
 
 def relink_merges(objects: list[TrackedObject], frames: np.ndarray, background: np.ndarray) -> int:
@@ -372,7 +424,9 @@ LARGE_BLOB_AREA = 100.0
 #: distance of its palette colour; pieces of compression colour riding along another body (a dark body's rim read as
 #: gray, a ring around it) have the other body's colour, or a blend, at their centre.
 PURE_RADIUS = 35.0
-#: The evidence of a track that is not pure is weighed down by this factor.
+#: The evidence of a track that is not pure is weighed down by this factor, and further the further its core colour
+#: is from its palette colour (see :func:`purity`): a small body softened by rescaling (core 37 from its colour) keeps
+#: it, the ring that a softened eye's pupil leaves in gray (core 95 from gray, the body's colour) does not.
 IMPURE_WEIGHT = 0.1
 #: Frames sampled for a track's core colour.
 CORE_SAMPLES = 40
@@ -396,18 +450,29 @@ def core_colour(obj: TrackedObject, frames: np.ndarray) -> np.ndarray | None:
     return np.median(np.array(values, dtype=np.float64), axis=0)
 
 
-def is_pure(obj: TrackedObject, frames: np.ndarray) -> bool:
-    """Whether ``obj`` looks like a body of its colour rather than a piece of another (see :data:`PURE_RADIUS`)."""
+def purity(obj: TrackedObject, frames: np.ndarray) -> float:
+    """1 where ``obj`` looks like a body of its colour (see :data:`PURE_RADIUS`), else :data:`IMPURE_WEIGHT` times
+    exp(-((d - PURE_RADIUS) / PURE_RADIUS)^2) for a core colour at distance d from its palette colour."""
     areas = [b.area for b in obj.blobs if b is not None]
     if not areas or float(np.median(areas)) >= LARGE_BLOB_AREA:
-        return True
+        return 1.0
     core = core_colour(obj, frames)
-    return core is not None and float(np.linalg.norm(core - PALETTE[obj.color])) < PURE_RADIUS
+    if core is None:
+        return IMPURE_WEIGHT
+    distance = float(np.linalg.norm(core - PALETTE[obj.color]))
+    if distance < PURE_RADIUS:
+        return 1.0
+    return IMPURE_WEIGHT * math.exp(-((distance - PURE_RADIUS) / PURE_RADIUS) ** 2)
+
+
+def is_pure(obj: TrackedObject, frames: np.ndarray) -> bool:
+    """Whether ``obj`` looks like a body of its colour rather than a piece of another (see :data:`PURE_RADIUS`)."""
+    return purity(obj, frames) == 1.0
 
 
 def select_objects(objects: list[TrackedObject], count: int | None, frames: np.ndarray) -> list[TrackedObject]:
     """The ``count`` most substantial bodies (all when None): by the evidence of each track (frames seen times median
-    blob area), weighed down by :data:`IMPURE_WEIGHT` where the track is not pure (:func:`is_pure`)."""
+    blob area), weighed down where the track is not pure (:func:`purity`)."""
     if count is None or len(objects) <= count:
         return objects
 
@@ -415,7 +480,7 @@ def select_objects(objects: list[TrackedObject], count: int | None, frames: np.n
         areas = [b.area for b in o.blobs if b is not None]
         if not areas:
             return 0.0
-        return len(areas) * float(np.median(areas)) * (1.0 if is_pure(o, frames) else IMPURE_WEIGHT)
+        return len(areas) * float(np.median(areas)) * purity(o, frames)
 
     ranked = sorted(objects, key=evidence, reverse=True)
     keep = set(map(id, ranked[:count]))
@@ -468,7 +533,7 @@ def refine_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarray
     if not todo:
         return
     x, y, fitted, rms = refine(frames, background, shape, size, obj.color, todo,
-                               *_measured_poses(obj, todo, shape, size))
+                               *_measured_poses(obj, todo, shape, size), blur=source_blur(obj.source_size))
     for i, k in enumerate(todo):
         if np.isfinite(rms[i]) and rms[i] < MAX_REFINE_RMS:
             obj.poses[k] = (float(x[i]), float(y[i]), float(fitted[i]))
@@ -491,7 +556,7 @@ def shape_residual(obj: TrackedObject, frames: np.ndarray, background: np.ndarra
         return math.inf
     pick = [done[int(i)] for i in np.unique(np.linspace(0, len(done) - 1, min(samples, len(done))).round())]
     _x, _y, _a, rms = refine(frames, background, shape, size, obj.color, pick,
-                             *_measured_poses(obj, pick, shape, size))
+                             *_measured_poses(obj, pick, shape, size), blur=source_blur(obj.source_size))
     finite = rms[np.isfinite(rms)]
     if not finite.size:
         return math.inf
@@ -531,11 +596,11 @@ def _features(obj: TrackedObject, pick: Sequence[int], complete: bool = True) ->
                      for k, m in obj.measurements.items() if k in chosen and (m.complete or not complete)])
 
 
-def _log_likelihoods(features: np.ndarray) -> dict[tuple[str, str], float]:
+def _log_likelihoods(features: np.ndarray, table: FeatureTable = SHAPE_FEATURES) -> dict[tuple[str, str], float]:
     """Per (shape, size), the log-likelihood of the features of every frame (Student-t, 3 degrees of freedom, per
-    feature and frame)."""
+    feature and frame) under ``table`` (see :func:`shape_features`)."""
     out = {}
-    for key, (centre, spread) in SHAPE_FEATURES.items():
+    for key, (centre, spread) in table.items():
         floor = np.array([0.06 * centre[0], 0.03, 0.006])
         z = (features - np.array(centre)) / np.maximum(np.array(spread) * SPREAD_FACTOR, floor)
         out[key] = float(np.sum(-2.0 * np.log1p(z * z / 3.0)))
@@ -555,7 +620,7 @@ def classify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarra
     if features.size == 0:
         obj.shape_size = {(s, z): 1.0 / 6 for s in SHAPES for z in SIZES}
         return
-    log_like = _log_likelihoods(features)
+    log_like = _log_likelihoods(features, shape_features(obj.source_size))
     top = max(log_like.values())
     weights = {k: math.exp(v - top) for k, v in log_like.items()}
     total = sum(weights.values())

@@ -61,7 +61,7 @@ def _check_file(path: Path) -> None:
         raise ReaderError(f"{path}: the video file is empty")
 
 
-def _decode_pyav(path: Path, size: int | None = None) -> np.ndarray:
+def _decode_pyav(path: Path, size: int | None = None) -> tuple[np.ndarray, int]:
     import av
 
     try:
@@ -77,6 +77,7 @@ def _decode_pyav(path: Path, size: int | None = None) -> np.ndarray:
         if size is not None and (stream.width, stream.height) != (size, size):
             scale = {"width": size, "height": size, "interpolation": "AREA" if stream.width > size else "BILINEAR"}
         frames = [f.to_ndarray(format="rgb24", **scale) for f in container.decode(stream)]
+        source = int(stream.width)
     except ReaderError:
         raise
     except Exception as err:  # noqa: BLE001
@@ -85,7 +86,7 @@ def _decode_pyav(path: Path, size: int | None = None) -> np.ndarray:
         container.close()
     if not frames:
         raise ReaderError(f"{path}: the video has no frames")
-    return np.stack(frames)
+    return np.stack(frames), source
 
 
 def _probe_size(path: Path, exe: str) -> tuple[int, int]:
@@ -99,12 +100,13 @@ def _probe_size(path: Path, exe: str) -> tuple[int, int]:
     return int(match.group(1)), int(match.group(2))
 
 
-def _decode_ffmpeg(path: Path, size: int | None = None) -> np.ndarray:
+def _decode_ffmpeg(path: Path, size: int | None = None) -> tuple[np.ndarray, int]:
     import imageio_ffmpeg
 
     exe = imageio_ffmpeg.get_ffmpeg_exe()
     width, height = _probe_size(path, exe)
     _check_square(path, width, height)
+    source = width
     fmt = ["-f", "mpegvideo"] if path.suffix.lower() == ".mpg" else []
     scale: list[str] = []
     if size is not None and (width, height) != (size, size):
@@ -120,7 +122,7 @@ def _decode_ffmpeg(path: Path, size: int | None = None) -> np.ndarray:
     frame_bytes = width * height * 3
     if data.size == 0 or data.size % frame_bytes:
         raise ReaderError(f"{path}: decoded {data.size} bytes, not a whole number of {width}x{height} frames")
-    return data.reshape(-1, height, width, 3)
+    return data.reshape(-1, height, width, 3), source
 
 
 def _check_square(path: Path, width: int, height: int) -> None:
@@ -132,6 +134,12 @@ def decode(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | 
     """RGB frames of a video, uint8 [T, H, W, 3]; ``decoder``: ``auto`` (PyAV if installed), ``pyav``,
     ``ffmpeg`` (imageio-ffmpeg). ``size``: frames of another size are rescaled to ``size`` x ``size`` as they are
     decoded (area averaging when shrinking, bilinear when enlarging). Frames that are not square are refused."""
+    return decode_sized(path, decoder, size)[0]
+
+
+def decode_sized(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | None = None
+                 ) -> tuple[np.ndarray, int]:
+    """:func:`decode`'s frames and the video's own frame size (pixels, before any rescaling)."""
     target = Path(path)
     _check_file(target)
     if decoder not in DECODERS:
@@ -140,10 +148,8 @@ def decode(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | 
         if not have_pyav():
             raise ReaderError("the pyav decoder needs PyAV, a dependency of craft-dsl that is missing here: "
                               "pip install 'av>=12'")
-        frames = _decode_pyav(target, size)
-    else:
-        frames = _decode_ffmpeg(target, size)
-    return frames
+        return _decode_pyav(target, size)
+    return _decode_ffmpeg(target, size)
 
 
 #: The MPEG sequence end code, the last four bytes of a whole MPEG-1 elementary stream (``.mpg``, as craft_dsl and
