@@ -1,0 +1,132 @@
+"""The reader's (shape, size) feature table, measured on a dataset's test videos at their own size or on copies
+rescaled to a smaller one: how :data:`craft_dsl.reader.track.SHAPE_FEATURES_128` was made.
+
+For each test video of a dataset written by ``craft-dsl generate --videos``, the bodies are detected and tracked as
+the reader does (layout, blobs, tracks) and, for each body whose colour is that of exactly one body of the true
+world (``scenes.sample_world`` of the video's scene and simulation seed), the three shape features (area,
+radius / sqrt(area), second moment / area) are measured in every frame where it is seen whole; the body's medians
+are its row. Printed per (shape, size), in the table's form: the median of the rows and their robust spread (1.4826 x
+median absolute deviation, at least the native table's spread), and how many bodies.
+
+    python benchmarks/shape_features.py --dataset DIR [--size 128] [--workers 2] [--limit N]
+
+``--size N`` reads copies made by ffmpeg (``scale=N:N``, its default bicubic, lossless H.264) instead of the files,
+decoded back to the reader's size as ``craft-dsl read`` does. No randomness: the same inputs give the same table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import tempfile
+from collections import defaultdict
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from craft_dsl.reader.answer import find_videos
+from craft_dsl.reader.detect import blobs, grid_labels, grid_rims
+from craft_dsl.reader.layout import fit_layout
+from craft_dsl.reader.layout_model import layout_model
+from craft_dsl.reader.perceive import frame_steps_of
+from craft_dsl.reader.track import (
+    SHAPE_FEATURES,
+    _features,
+    classify_shape,
+    merge_colour_splits,
+    select_objects,
+    track,
+)
+from craft_dsl.reader.video import decode_sized
+from craft_dsl.render.raster import DEFAULT_SIZE, static_layer
+from craft_dsl.scenes import sample_world
+from craft_dsl.world import WorldSpec
+
+Row = tuple[str, str, float, float, float]
+
+
+def body_rows(dataset: Path, index: int, video: Path) -> list[Row]:
+    """(shape, size, median area, median radius / sqrt(area), median moment) of the bodies of one video that its
+    colour names alone."""
+    stats = json.loads((dataset / "questions" / f"qa_{index:06d}.json").read_text())["stats"]
+    frames, source = decode_sized(video, size=DEFAULT_SIZE)
+    _given, rows = frame_steps_of(len(frames))
+    layout = fit_layout(frames)
+    model = layout_model(layout.scene)
+    background = static_layer(WorldSpec(bodies=layout.statics), frames.shape[1])
+    objects = select_objects(merge_colour_splits(track(blobs(grid_labels(frames, background), grid_rims(background)),
+                                                       len(frames), steps=rows), rows),
+                             len(model.layout.dynamic), frames)
+    truth = [b for b in sample_world(stats["scene"], stats["simulation_seed"]).bodies if b.dynamic]
+    out: list[Row] = []
+    for obj in objects:
+        obj.source_size = source if source != DEFAULT_SIZE else None
+        named = [b for b in truth if b.color == obj.color_name]
+        if len(named) != 1:
+            continue
+        classify_shape(obj, frames, background)  # measures the frames it samples
+        whole = [k for k in obj.seen() if not obj.blobs[k].touches_edge]  # type: ignore[union-attr]
+        features = _features(obj, whole)
+        if len(features):
+            area, radius, moment = np.median(features, axis=0).tolist()
+            out.append((named[0].shape, named[0].size, area, radius, moment))
+    return out
+
+
+def _job(args: tuple[Path, int, Path]) -> list[Row]:
+    return body_rows(*args)
+
+
+def copies(videos: dict[int, Path], size: int, folder: Path, workers: int) -> dict[int, Path]:
+    """Lossless H.264 copies rescaled to ``size`` x ``size`` by ffmpeg."""
+    import imageio_ffmpeg
+
+    exe = imageio_ffmpeg.get_ffmpeg_exe()
+
+    def one(item: tuple[int, Path]) -> tuple[int, Path]:
+        index, source = item
+        target = folder / f"{index:06d}.mp4"
+        subprocess.run([exe, "-loglevel", "error", "-y", "-i", str(source), "-vf", f"scale={size}:{size}",
+                        "-c:v", "libx264", "-qp", "0", "-pix_fmt", "yuv420p", str(target)], check=True)
+        return index, target
+
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(workers) as pool:
+        return dict(pool.map(one, sorted(videos.items())))
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--dataset", required=True, help="a dataset folder written by craft-dsl generate --videos")
+    parser.add_argument("--size", type=int, help="read copies rescaled to this many pixels (default: the files)")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--limit", type=int, help="only the first N test videos (a quick look)")
+    args = parser.parse_args()
+    dataset = Path(args.dataset)
+    test = sorted({int(q["video_index"]) for name in ("random", "hard")
+                   for q in json.loads((dataset / f"split_info_{name}.json").read_text())["test"]})[:args.limit]
+    videos = find_videos(dataset, test)
+    with tempfile.TemporaryDirectory() as tmp:
+        if args.size:
+            videos = copies(videos, args.size, Path(tmp), args.workers)
+        with ProcessPoolExecutor(args.workers) as pool:
+            rows = [r for part in pool.map(_job, [(dataset, i, videos[i]) for i in test]) for r in part]
+    table: dict[tuple[str, str], list[tuple[float, float, float]]] = defaultdict(list)
+    for shape, size, *features in rows:
+        table[(shape, size)].append((features[0], features[1], features[2]))
+    print(f"{len(test)} test videos, {len(rows)} bodies named by their colour"
+          + (f", copies at {args.size} px" if args.size else ""))
+    for key in sorted(table):
+        values = np.array(table[key])
+        median = np.median(values, axis=0)
+        spread = np.maximum(1.4826 * np.median(np.abs(values - median), axis=0), SHAPE_FEATURES[key][1])
+        print(f"    {key!r}: (({median[0]:.1f}, {median[1]:.4f}, {median[2]:.4f}), "
+              f"({spread[0]:.1f}, {spread[1]:.4f}, {spread[2]:.4f})),  # {len(values)} bodies")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
