@@ -10,21 +10,22 @@ median absolute deviation, at least the native table's spread), and how many bod
 
     python benchmarks/shape_features.py --dataset DIR [--size 128] [--workers 2] [--limit N]
 
-``--size N`` reads copies made by ffmpeg (``scale=N:N``, its default bicubic, lossless H.264) instead of the files,
-decoded back to the reader's size as ``craft-dsl read`` does. No randomness: the same inputs give the same table.
+``--size N`` reads copies made by ffmpeg as ``reader_robustness.py`` makes them (``scale=N:N``, its default bicubic,
+lossless H.264) instead of the files, decoded back to the reader's size as ``craft-dsl read`` does. No randomness:
+the same inputs give the same table.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import tempfile
 from collections import defaultdict
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
+from reader_robustness import LOSSLESS_H264, Variant, ffmpeg_exe, make_copies
 
 from craft_dsl.reader.answer import find_videos
 from craft_dsl.reader.detect import blobs, grid_labels, grid_rims
@@ -62,7 +63,7 @@ def body_rows(dataset: Path, index: int, video: Path) -> list[Row]:
     truth = [b for b in sample_world(stats["scene"], stats["simulation_seed"]).bodies if b.dynamic]
     out: list[Row] = []
     for obj in objects:
-        obj.source_size = source if source != DEFAULT_SIZE else None
+        obj.source_size = source
         named = [b for b in truth if b.color == obj.color_name]
         if len(named) != 1:
             continue
@@ -80,22 +81,11 @@ def _job(args: tuple[Path, int, Path]) -> list[Row]:
 
 
 def copies(videos: dict[int, Path], size: int, folder: Path, workers: int) -> dict[int, Path]:
-    """Lossless H.264 copies rescaled to ``size`` x ``size`` by ffmpeg."""
-    import imageio_ffmpeg
-
-    exe = imageio_ffmpeg.get_ffmpeg_exe()
-
-    def one(item: tuple[int, Path]) -> tuple[int, Path]:
-        index, source = item
-        target = folder / f"{index:06d}.mp4"
-        subprocess.run([exe, "-loglevel", "error", "-y", "-i", str(source), "-vf", f"scale={size}:{size}",
-                        "-c:v", "libx264", "-qp", "0", "-pix_fmt", "yuv420p", str(target)], check=True)
-        return index, target
-
-    from concurrent.futures import ThreadPoolExecutor
-
-    with ThreadPoolExecutor(workers) as pool:
-        return dict(pool.map(one, sorted(videos.items())))
+    """Lossless H.264 copies rescaled to ``size`` x ``size`` by ffmpeg, made as ``reader_robustness.py`` makes its
+    ``scale-128`` and ``scale-512`` copies."""
+    variant = Variant(f"scale-{size}", ".mp4", ("-vf", f"scale={size}:{size}", *LOSSLESS_H264), "libx264", "h264",
+                      size=size)
+    return make_copies(videos, variant, folder, workers, ffmpeg_exe())
 
 
 def main() -> int:

@@ -12,7 +12,6 @@ from craft_dsl.reader.track import (
     TrackedObject,
     classify_shape,
     count_per_color,
-    is_pure,
     purity,
     relink_merges,
     select_objects,
@@ -119,7 +118,7 @@ def test_purity_falls_with_the_core_colour_s_distance_from_the_palette() -> None
     for shift in (0.0, 40.0, 95.0):
         obj, picture = _still_track("blue", (blue[0], blue[1], blue[2] - shift), 4, 30.0, 32)
         weights.append(purity(obj, picture))
-    assert weights[0] == 1.0 and is_pure(*_still_track("blue", blue, 4, 30.0, 32))
+    assert weights[0] == 1.0 and purity(*_still_track("blue", blue, 4, 30.0, 32)) == 1.0
     assert IMPURE_WEIGHT * 0.9 < weights[1] <= IMPURE_WEIGHT
     assert weights[2] < 0.1 * weights[1]
 

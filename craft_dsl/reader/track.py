@@ -48,9 +48,11 @@ SUBSTANTIAL_AREA = 16.0
 PIECE_DISTANCE = 1.0
 #: Window (pixels) of the full-resolution measurement.
 WINDOW = 48
+#: (shape, size) -> (centre, spread) of the three shape features.
+FeatureTable = dict[tuple[str, str], tuple[tuple[float, float, float], tuple[float, float, float]]]
 #: (shape, size) -> median and spread of the measured (area px^2, radius / sqrt(area), second moment / area) of a
 #: complete body, from generated MPEG-1 videos (dev seeds).
-SHAPE_FEATURES: dict[tuple[str, str], tuple[tuple[float, float, float], tuple[float, float, float]]] = {
+SHAPE_FEATURES: FeatureTable = {
     ("circle", "large"): ((329.8, 0.552, 0.1599), (1.3, 0.007, 0.0002)),
     ("circle", "small"): ((44.8, 0.682, 0.2006), (4.1, 0.079, 0.0118)),
     ("cube", "large"): ((419.0, 0.707, 0.1667), (6.0, 0.02, 0.003)),
@@ -63,7 +65,7 @@ SHAPE_FEATURES: dict[tuple[str, str], tuple[tuple[float, float, float], tuple[fl
 #: 118). Medians and robust spreads (1.4826 x median absolute deviation, at least the native spread) of 299 bodies of
 #: the 108 test videos of a generated dataset (seed 3131) copied at 128 px by ffmpeg's ``scale`` (bicubic), lossless
 #: H.264: ``python benchmarks/shape_features.py --dataset DIR --size 128``.
-SHAPE_FEATURES_128: dict[tuple[str, str], tuple[tuple[float, float, float], tuple[float, float, float]]] = {
+SHAPE_FEATURES_128: FeatureTable = {
     ("circle", "large"): ((294.4, 0.5642, 0.1619), (17.0, 0.0199, 0.0011)),
     ("circle", "small"): ((29.6, 0.6016, 0.2025), (6.9, 0.0790, 0.0118)),
     ("cube", "large"): ((373.2, 0.6361, 0.1667), (19.7, 0.0200, 0.0030)),
@@ -77,8 +79,6 @@ SHAPE_FEATURES_128: dict[tuple[str, str], tuple[tuple[float, float, float], tupl
 BLUR_128 = 1.2
 #: Spreads are widened by this factor (compression noise varies between videos).
 SPREAD_FACTOR = 3.0
-
-FeatureTable = dict[tuple[str, str], tuple[tuple[float, float, float], tuple[float, float, float]]]
 
 
 def _upscaling(source_size: int | None) -> float:
@@ -463,11 +463,6 @@ def purity(obj: TrackedObject, frames: np.ndarray) -> float:
     if distance < PURE_RADIUS:
         return 1.0
     return IMPURE_WEIGHT * math.exp(-((distance - PURE_RADIUS) / PURE_RADIUS) ** 2)
-
-
-def is_pure(obj: TrackedObject, frames: np.ndarray) -> bool:
-    """Whether ``obj`` looks like a body of its colour rather than a piece of another (see :data:`PURE_RADIUS`)."""
-    return purity(obj, frames) == 1.0
 
 
 def select_objects(objects: list[TrackedObject], count: int | None, frames: np.ndarray) -> list[TrackedObject]:
