@@ -18,17 +18,12 @@ import numpy as np
 from scipy import ndimage as ndi
 
 from .detect import BLACK, GRAY, PALETTE, WHITE, clean_background, lookup
+from .morphology import close_disk, fill_holes, grow, shrink
 
 #: Radius (pixels) of the disk that closes the eye notches of a body's colour mask.
 CLOSING_RADIUS = 4
 
 
-def _disk(radius: int) -> np.ndarray:
-    r = np.arange(-radius, radius + 1)
-    return (r[:, None] ** 2 + r[None, :] ** 2) <= radius * radius + radius
-
-
-_CLOSING = _disk(CLOSING_RADIUS)
 #: A piece of another body colour this large (pixels) next to the body means another body touches it.
 OTHER_BODY_PIXELS = 12
 
@@ -74,9 +69,8 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
         core &= clean
     if not core.any():
         return None
-    closed = ndi.binary_closing(np.pad(core, CLOSING_RADIUS), structure=_CLOSING)[
-        CLOSING_RADIUS:-CLOSING_RADIUS, CLOSING_RADIUS:-CLOSING_RADIUS] | core
-    filled = ndi.binary_fill_holes(closed)
+    closed = close_disk(core, CLOSING_RADIUS) | core
+    filled = fill_holes(closed)
     pieces, n = ndi.label(filled)
     if n > 1:
         if seed is not None:
@@ -86,8 +80,8 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
         else:
             keep = int(np.argmax(np.bincount(pieces.ravel())[1:])) + 1
         filled = pieces == keep
-    interior = ndi.binary_erosion(filled, border_value=1)
-    rim = ndi.binary_dilation(filled) & ~interior
+    interior = shrink(filled)
+    rim = grow(filled) & ~interior
     c = PALETTE[color]
     b = background.astype(np.float32)
     cb = c[None, None, :] - b
@@ -96,7 +90,7 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
     eyes = (labels == WHITE) | (labels == BLACK)
     # another body's colour (compression rings of statics reach a pixel or two beyond their drawn rims)
     other = (labels >= 0) & (labels < WHITE) & (labels != color)
-    other &= (labels != GRAY) | ndi.binary_erosion(clean, iterations=2, border_value=1)
+    other &= (labels != GRAY) | shrink(clean, 2)
     alpha = interior.astype(np.float32)
     rim_ok = rim & ~other & ~(eyes & filled)
     alpha[rim_ok] = np.clip(proj[rim_ok], 0.0, 1.0)
@@ -121,7 +115,7 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
         ey, ex = np.nonzero(inner_eyes)
         eye_x, eye_y = float(ex.mean() + 0.5 + origin[1]), float(ey.mean() + 0.5 + origin[0])
     border = filled[0].any() or filled[-1].any() or filled[:, 0].any() or filled[:, -1].any()
-    ring = ndi.binary_dilation(filled, iterations=2) & ~filled
+    ring = grow(filled, 2) & ~filled
     cut = False
     if (ring & other).any():  # another body touches: a piece of another colour of some size (not eye-rim mixes)
         pieces, n = ndi.label(other)

@@ -1,0 +1,99 @@
+"""Binary morphology on the small windows the reader measures bodies in, by shifted copies of the mask.
+
+Each function returns exactly what its :mod:`scipy.ndimage` counterpart returns (the tests compare them on random
+masks), several times faster on windows of a few thousand pixels, where scipy's per-call set-up outweighs the
+work: a body is measured in hundreds of windows per video.
+
+* :func:`grow` / :func:`shrink`: ``binary_dilation`` / ``binary_erosion`` with the 4-connected cross, iterated
+  (``shrink`` counts pixels beyond the edge as set: ``border_value=1``);
+* :func:`close_disk`: ``binary_closing`` with a disk (offsets with dy**2 + dx**2 <= r*r + r) of a mask padded by
+  the radius, the padding cut off again;
+* :func:`fill_holes`: ``binary_fill_holes`` (4-connected background).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage as ndi
+
+__all__ = ["close_disk", "disk", "fill_holes", "grow", "shrink"]
+
+
+def disk(radius: int) -> np.ndarray:
+    """The disk structure of ``radius``: offsets (dy, dx) with dy**2 + dx**2 <= radius**2 + radius."""
+    r = np.arange(-radius, radius + 1)
+    return (r[:, None] ** 2 + r[None, :] ** 2) <= radius * radius + radius
+
+
+def _cross_step(mask: np.ndarray, fill: bool) -> np.ndarray:
+    """One 4-connected dilation of ``mask`` (``fill=False``: pixels beyond the edge unset), or of its complement
+    complemented, i.e. one erosion (``fill=True``: pixels beyond the edge set)."""
+    src = ~mask if fill else mask
+    out = src.copy()
+    out[1:] |= src[:-1]
+    out[:-1] |= src[1:]
+    out[:, 1:] |= src[:, :-1]
+    out[:, :-1] |= src[:, 1:]
+    return ~out if fill else out
+
+
+def grow(mask: np.ndarray, iterations: int = 1) -> np.ndarray:
+    """``ndi.binary_dilation(mask, iterations=iterations)``."""
+    out = mask.astype(bool)
+    for _ in range(iterations):
+        out = _cross_step(out, False)
+    return out
+
+
+def shrink(mask: np.ndarray, iterations: int = 1) -> np.ndarray:
+    """``ndi.binary_erosion(mask, iterations=iterations, border_value=1)``."""
+    out = mask.astype(bool)
+    for _ in range(iterations):
+        out = _cross_step(out, True)
+    return out
+
+
+def _dilate_disk(mask: np.ndarray, radius: int) -> np.ndarray:
+    """Dilation by :func:`disk` (pixels beyond the edge unset): each row of the disk is a run of columns, so the
+    mask is widened by each run's half-width and the widened rows shifted by the row's offset."""
+    widths = [int(np.sqrt(radius * radius + radius - dy * dy)) for dy in range(radius + 1)]
+    widened = {0: mask}
+    cur = mask
+    for w in range(1, max(widths) + 1):
+        nxt = cur.copy()
+        nxt[:, 1:] |= cur[:, :-1]
+        nxt[:, :-1] |= cur[:, 1:]
+        widened[w] = cur = nxt
+    out = widened[widths[0]].copy()
+    for dy in range(1, radius + 1):
+        row = widened[widths[dy]]
+        out[dy:] |= row[:-dy]
+        out[:-dy] |= row[dy:]
+    return out
+
+
+def close_disk(mask: np.ndarray, radius: int) -> np.ndarray:
+    """``ndi.binary_closing(np.pad(mask, radius), structure=disk(radius))[radius:-radius, radius:-radius]``."""
+    m = np.pad(mask.astype(bool), 2 * radius)
+    dilated = _dilate_disk(m, radius)
+    # the closing's array is the mask padded by ``radius``: its dilation stops there, and its erosion counts what
+    # lies beyond as unset
+    dilated[:radius] = False
+    dilated[-radius:] = False
+    dilated[:, :radius] = False
+    dilated[:, -radius:] = False
+    closed = ~_dilate_disk(~dilated, radius)
+    return closed[2 * radius:-2 * radius, 2 * radius:-2 * radius]
+
+
+def fill_holes(mask: np.ndarray) -> np.ndarray:
+    """``ndi.binary_fill_holes(mask)``: the unset pieces (4-connected) that do not reach the edge are set."""
+    mask = mask.astype(bool)
+    background, n = ndi.label(~mask)
+    if n == 0:
+        return mask.copy()
+    edge = np.concatenate([background[0], background[-1], background[:, 0], background[:, -1]])
+    outside = np.zeros(n + 1, dtype=bool)
+    outside[edge] = True
+    outside[0] = True  # label 0: the mask itself
+    return mask | ~outside[background]
