@@ -105,22 +105,27 @@ class PymunkEngine:
             shapes.append(pymunk.Circle(body, geo.circle_radius))
         for a, b in geo.segments:
             shapes.append(pymunk.Segment(body, a, b, geo.segment_radius))
+        # the Chipmunk setters pymunk's properties call, in the same order, without their Python wrappers (a
+        # reconstruction builds hundreds of spaces a video)
+        shape_filter = _FILTER_DYNAMIC if spec.dynamic else _FILTER_STATIC
         for shape in shapes:
-            shape.friction = _SHAPE_FRICTION
-            shape.elasticity = 0.0
+            h = shape._shape
+            _lib.cpShapeSetFriction(h, _SHAPE_FRICTION)
+            _lib.cpShapeSetElasticity(h, 0.0)
             if spec.dynamic:
-                shape.density = 50.0
-            shape.filter = _FILTER_DYNAMIC if spec.dynamic else _FILTER_STATIC
+                _lib.cpShapeSetDensity(h, 50.0)
+            _lib.cpShapeSetFilter(h, shape_filter)
         if geo.sensor is not None:
             sensor = pymunk.Poly(body, list(geo.sensor))
             sensor.sensor = True
             sensor.filter = _FILTER_STATIC
             shapes.append(sensor)
-        body.position = spec.position
-        body.angle = spec.angle
+        hb = body._body
+        _lib.cpBodySetPosition(hb, spec.position)
+        _lib.cpBodySetAngle(hb, spec.angle)
         if spec.dynamic:
-            body.velocity = spec.velocity
-            body.angular_velocity = spec.angular_velocity
+            _lib.cpBodySetVelocity(hb, spec.velocity)
+            _lib.cpBodySetAngularVelocity(hb, spec.angular_velocity)
         return body, shapes
 
     def substeps_for(self, max_speed_sq: float, fps: float) -> int:
