@@ -74,8 +74,12 @@ def color_table() -> np.ndarray:
 
 def lookup(pixels: np.ndarray) -> np.ndarray:
     """Palette index (int8, -1 unlabelled) of uint8 RGB pixels [..., 3]."""
-    idx = ((pixels[..., 0] >> 3).astype(np.uint16) << 10) | ((pixels[..., 1] >> 3).astype(np.uint16) << 5)
-    idx |= pixels[..., 2] >> 3
+    q = pixels >> 3  # one pass over the contiguous pixels, then the channels packed in place
+    idx = q[..., 0].astype(np.uint16)
+    idx <<= 5
+    idx |= q[..., 1]
+    idx <<= 5
+    idx |= q[..., 2]
     out: np.ndarray = color_table()[idx]
     return out
 
