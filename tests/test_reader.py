@@ -19,7 +19,7 @@ from craft_dsl.cli import main
 from craft_dsl.errors import InputFileError, ReaderError
 from craft_dsl.physics import simulate
 from craft_dsl.reader.answer import Question, answer_questions, find_videos, format_answer, read_questions
-from craft_dsl.reader.detect import BLACK, PALETTE, WHITE, Blob, blobs, grid_labels, lookup
+from craft_dsl.reader.detect import BLACK, PALETTE, WHITE, Blob, blobs, color_table, grid_labels, lookup
 from craft_dsl.reader.layout import StaticRenderer, fit_statics, observation
 from craft_dsl.reader.layout_model import LayoutModel, layout_model
 from craft_dsl.reader.measure import measure
@@ -45,6 +45,15 @@ def test_a_half_blend_of_a_colour_and_white_is_unlabelled() -> None:
     red = np.array(PALETTE[COLORS.index("red")])
     blend = (0.5 * red + 0.5 * 255).astype(np.uint8)
     assert lookup(blend[None, None, :])[0, 0] == -1
+
+
+def test_every_colour_reads_as_the_table_entry_of_its_5_bit_bin() -> None:
+    r, g = np.meshgrid(np.arange(256, dtype=np.uint8), np.arange(256, dtype=np.uint8), indexing="ij")
+    table = color_table()
+    for b in range(0, 256, 5):  # every (r, g) pair with blue levels across the range, in 52 frames of 65,536
+        pixels = np.stack([r, g, np.full_like(r, b)], axis=-1)
+        expected = table[(r.astype(np.int64) // 8) * 1024 + (g.astype(np.int64) // 8) * 32 + b // 8]
+        assert np.array_equal(lookup(pixels), expected)
 
 
 # -- the layout as a function of its draws -------------------------------------------------------------------
