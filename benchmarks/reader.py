@@ -56,6 +56,7 @@ from craft_dsl.question_parsing import question_to_program
 from craft_dsl.ranges import parse_ranges
 from craft_dsl.reader.answer import Question, answer_questions, find_videos, read_questions
 from craft_dsl.reader.perceive import perceive_video
+from craft_dsl.reader.reconstruct import MAX_ANCHORS
 from craft_dsl.render.raster import world_to_pixel
 from craft_dsl.verify import read_minimal, read_split, score
 from craft_dsl.verify.answers import answers_agree
@@ -343,6 +344,7 @@ def report(root: Path, results: list[dict[str, Any]], parts: dict[str, set[tuple
         if timings.get(k):
             m = float(np.mean(timings[k]))
             lines.append(f"| {k} | {m:.3f} | {m / decode:.2f} |")
+    lines += latency_lines(ok)
     stages = Counter((q["stage"], family_of(q["template_id"])) for r in ok for q in r["questions"] if q["stage"])
     lines += ["", "### Wrong answers by stage", "", "| stage | C | CF | D | all |", "|---|---|---|---|---|"]
     for stage in sorted({s for s, _ in stages}):
@@ -354,6 +356,36 @@ def report(root: Path, results: list[dict[str, Any]], parts: dict[str, set[tuple
                 load=[load_before, load_after], per_video=ok)
     if json_out:
         Path(json_out).write_text(json.dumps(data, indent=1, default=str))
+
+
+def latency_lines(ok: list[dict[str, Any]]) -> list[str]:
+    """Where a video's time goes: seconds per video (perception and answering) as median, 90th percentile and
+    maximum, and the reconstruction's time by the number of restarts of straying bodies (at most ``MAX_ANCHORS``)
+    and whether a second engine was tried."""
+    if not ok:
+        return []
+    total = np.array([r["timings"].get("perception", 0.0) + r["timings"].get("answering", 0.0) for r in ok])
+    rec = np.array([r["timings"].get("reconstruct", 0.0) for r in ok])
+    lines = ["", f"Seconds per video, perception and answering: median {np.median(total):.2f}, 90th percentile "
+             f"{np.quantile(total, 0.9):.2f}, largest {total.max():.2f}.", "",
+             "| videos by restarts of straying bodies | videos | reconstruction s (mean) | share of reconstruction |",
+             "|---|---|---|---|"]
+    groups: dict[str, list[int]] = defaultdict(list)
+    for i, r in enumerate(ok):
+        anchors = int(r.get("anchors", 0))
+        label = ("none" if anchors == 0 else "1-2" if anchors <= 2 else "3-5" if anchors < MAX_ANCHORS
+                 else f"{anchors} (the most)")
+        groups[label].append(i)
+        if len(r.get("tried", [])) > 1:
+            groups["a second engine tried"].append(i)
+    order = ["none", "1-2", "3-5"] + sorted(k for k in groups if k[0].isdigit() and "-" not in k) + [
+        "a second engine tried"]
+    for label in order:
+        if label in groups:
+            idx = groups[label]
+            share = rec[idx].sum() / max(rec.sum(), 1e-9)
+            lines.append(f"| {label} | {len(idx)} | {rec[idx].mean():.2f} | {share:.0%} |")
+    return lines
 
 
 if __name__ == "__main__":
