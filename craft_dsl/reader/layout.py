@@ -54,6 +54,12 @@ ALIASED_EDGE_SHARE = 0.05
 #: video with a ghost read 0.054 over the whole picture, 0.003 near its statics).
 EDGE_BAND = 2
 _FD = 1e-4
+#: After Gauss-Newton, the fit's WEAK_DIRECTIONS least determined directions are searched along at WEAK_SEARCH_POINTS
+#: places each (blurred, at a quarter of the resolution), and the fit redone from the best; its result is kept when
+#: its residual is under WEAK_SEARCH_GAIN times the first fit's.
+WEAK_DIRECTIONS = 2
+WEAK_SEARCH_POINTS = 17
+WEAK_SEARCH_GAIN = 0.9
 
 
 @dataclass(frozen=True)
@@ -167,7 +173,9 @@ def fit_statics(model: LayoutModel, lum: np.ndarray, weight: np.ndarray, search_
     """Static draws of ``model`` that best explain the luminance image, and the final RMS residual (grey levels).
 
     First a coordinate search (each draw over ``search_points`` places in its range, ``search_rounds`` times round,
-    on images blurred by 4 px at a quarter of the resolution), then Gauss-Newton at each level of :data:`LEVELS`."""
+    on images blurred by 4 px at a quarter of the resolution), then Gauss-Newton at each level of :data:`LEVELS`,
+    then a search along the fit's least determined directions (:data:`WEAK_DIRECTIONS`) and Gauss-Newton again from
+    the best place found, kept where it explains the picture better."""
     size = lum.shape[0]
     renderers = {f: StaticRenderer(model, size // f) for f in (1, 2, 4)}
     paths = [p for p in model.static_paths
@@ -199,16 +207,42 @@ def fit_statics(model: LayoutModel, lum: np.ndarray, weight: np.ndarray, search_
                 c = float(np.sum(residual(trial) ** 2))
                 if c < cost:
                     u, cost = trial, c
+    u, rms, jtj = _gauss_newton_levels(make_residual, u, len(paths))
+    if jtj is not None and WEAK_SEARCH_POINTS:
+        # Gauss-Newton stops where one edge of a static is all the picture says about a draw (an incline of two
+        # overlapping platforms whose far end leaves the picture: where the upper one starts): the least
+        # determined directions are searched along whole, and the fit redone from the best place found
+        coarse, _ = make_residual(4.0, 4)
+        start_cost = float(np.sum(coarse(u) ** 2))
+        found, found_cost = u, start_cost
+        for v in _weak_directions(jtj):
+            for t in np.linspace(-1.0, 1.0, WEAK_SEARCH_POINTS):
+                trial = np.clip(u + t * v, 0.0, 1.0)
+                c = float(np.sum(coarse(trial) ** 2))
+                if c < found_cost:
+                    found, found_cost = trial, c
+        if found_cost < start_cost:
+            u2, rms2, _ = _gauss_newton_levels(make_residual, found, len(paths))
+            if rms2 < WEAK_SEARCH_GAIN * rms:
+                u, rms = u2, rms2
+    return to_values(u), rms
+
+
+def _gauss_newton_levels(make_residual: Callable[[float, int], tuple[Callable[[np.ndarray], np.ndarray], float]],
+                         u: np.ndarray, n: int) -> tuple[np.ndarray, float, np.ndarray | None]:
+    """Gauss-Newton at each level of :data:`LEVELS` from ``u``: the units, the final RMS residual and the normal
+    matrix of the last level's last Jacobian (None when nothing was fitted)."""
     rms = float("inf")
+    jtj: np.ndarray | None = None
     for sigma, factor, iterations in LEVELS:
         residual, total_weight = make_residual(sigma, factor)
         r = residual(u)
         cost = float(r @ r)
         for _ in range(iterations):
-            if not paths:
+            if not n:
                 break
-            jac = np.empty((r.size, len(paths)), dtype=np.float64)
-            for j in range(len(paths)):
+            jac = np.empty((r.size, n), dtype=np.float64)
+            for j in range(n):
                 du = u.copy()
                 du[j] += _FD if du[j] + _FD <= 1.0 else -_FD
                 jac[:, j] = (residual(du) - r) / (du[j] - u[j])
@@ -227,7 +261,18 @@ def fit_statics(model: LayoutModel, lum: np.ndarray, weight: np.ndarray, search_
             if not improved or float(np.max(np.abs(step))) < 1e-5:
                 break
         rms = float(np.sqrt(cost / max(total_weight, 1.0)))
-    return to_values(u), rms
+    return u, rms, jtj
+
+
+def _weak_directions(jtj: np.ndarray) -> list[np.ndarray]:
+    """The :data:`WEAK_DIRECTIONS` least determined directions of a fit (eigenvectors of its normal matrix with the
+    smallest eigenvalues), scaled so that their largest component is 1 (a whole range of that draw)."""
+    _values, vectors = np.linalg.eigh(jtj)
+    out = []
+    for k in range(min(WEAK_DIRECTIONS, vectors.shape[1])):
+        v = vectors[:, k]
+        out.append(v / max(float(np.max(np.abs(v))), 1e-12))
+    return out
 
 
 def fit_layout(frames: np.ndarray, candidates: int = CANDIDATES, scene: int | None = None) -> StaticFit:
