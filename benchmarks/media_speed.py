@@ -14,10 +14,12 @@ import statistics
 import tempfile
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 from craft_dsl.physics import simulate
 from craft_dsl.render import frames, write_frames, write_png
+from craft_dsl.simulation import Simulation
 from craft_dsl.viewer.data import transcode_to_mp4
 
 
@@ -25,6 +27,11 @@ def timed(fn: Callable[[], object]) -> float:
     t0 = time.perf_counter()
     fn()
     return time.perf_counter() - t0
+
+
+def _two_pngs(sim: Simulation, folder: Path) -> None:
+    write_png(sim, folder / "a.png", 1)
+    write_png(sim, folder / "b.png", sim.steps)
 
 
 def main() -> int:
@@ -44,19 +51,18 @@ def main() -> int:
         for _ in range(args.repeat):
             for k, sim in enumerate(sims):
                 fr = frames(sim)
-                times["render"].append(timed(lambda sim=sim: frames(sim)))
+                times["render"].append(timed(partial(frames, sim)))
                 for ext in ("mpg", "mp4"):
                     path = Path(tmp) / f"{k}.{ext}"
-                    times[ext].append(timed(lambda fr=fr, path=path: write_frames(fr, path)))
+                    times[ext].append(timed(partial(write_frames, fr, path)))
                     sizes[ext].append(path.stat().st_size)
-                times["pngs"].append(timed(lambda sim=sim: (write_png(sim, Path(tmp) / "a.png", 1),
-                                                            write_png(sim, Path(tmp) / "b.png", sim.steps))))
+                times["pngs"].append(timed(partial(_two_pngs, sim, Path(tmp))))
                 if decode_video is not None:
                     mpg, mp4 = Path(tmp) / f"{k}.mpg", Path(tmp) / f"{k}.mp4"
-                    times["decode mpg"].append(timed(lambda p=mpg: decode_video(p)))
-                    times["decode mp4"].append(timed(lambda p=mp4: decode_video(p)))
-                    times["decode mpg 5 fps 128 px"].append(timed(lambda p=mpg: decode_video(p, 5, 128)))
-                times["transcode mpg"].append(timed(lambda k=k: transcode_to_mp4(Path(tmp) / f"{k}.mpg")))
+                    times["decode mpg"].append(timed(partial(decode_video, mpg)))
+                    times["decode mp4"].append(timed(partial(decode_video, mp4)))
+                    times["decode mpg 5 fps 128 px"].append(timed(partial(decode_video, mpg, 5, 128)))
+                times["transcode mpg"].append(timed(partial(transcode_to_mp4, Path(tmp) / f"{k}.mpg")))
     render = statistics.median(times["render"])
     print(f"{len(sims)} simulations x {args.repeat} repeats, 600 frames of 256x256 (medians per 10-s video)")
     for name, values in times.items():
@@ -65,8 +71,8 @@ def main() -> int:
             continue
         med = statistics.median(values)
         print(f"{name:<26}: {1000 * med:7.1f} ms/video  {1000 * med / 600:6.2f} ms/frame  {med / render:5.2f}x render")
-    for ext, values in sizes.items():
-        print(f"{ext} size                  : {statistics.median(values) / 1024:7.0f} KB")
+    for ext, byte_counts in sizes.items():
+        print(f"{ext} size                  : {statistics.median(byte_counts) / 1024:7.0f} KB")
     return 0
 
 

@@ -228,7 +228,7 @@ def main() -> int:
     print(f"\nsampled prefix tokens, {s_count} simulations x 8 programs (loading the simulations...)")
     many_sims: list[Simulation] = []
     many_scenes: list[OriginalScene] = []
-    programs: list[list[str]] = []
+    sampled: list[list[str]] = []
     prog_sims: list[Simulation] = []
     prog_scenes: list[OriginalScene] = []
     for k in range(s_count):
@@ -239,19 +239,19 @@ def main() -> int:
         many_scenes.append(scene)
         gold = rng.choice(questions[j]).to_tokens("prefix")
         for tokens in sample_programs(gold, 8, rng):
-            programs.append(tokens)
+            sampled.append(tokens)
             prog_sims.append(sim)
             prog_scenes.append(scene)
-    orig_work = [(scene, x) for scene, x in zip(prog_scenes, original_nodes(programs)) if x is not None]
-    result = run_batch(programs, prog_sims, form="prefix")
+    orig_work = [(scene, x) for scene, x in zip(prog_scenes, original_nodes(sampled)) if x is not None]
+    result = run_batch(sampled, prog_sims, form="prefix")
     times = best_times({
         "original": (lambda: [run_original(scene, x) for scene, x in orig_work], None),
-        "ours": (lambda: run_batch(programs, prog_sims, form="prefix"), lambda: clear_caches(many_sims))},
+        "ours": (lambda: run_batch(sampled, prog_sims, form="prefix"), lambda: clear_caches(many_sims))},
         args.repeat)
-    ours, theirs = len(programs) / times["ours"], len(orig_work) / times["original"]
+    ours, theirs = len(sampled) / times["ours"], len(orig_work) / times["original"]
     counts = result.counts()
-    print(f"  {len(programs)} programs, {len({tuple(p) for p in programs})} distinct, "
-          f"{1 - counts['answer'] / len(programs):.0%} not answers")
+    print(f"  {len(sampled)} programs, {len({tuple(p) for p in sampled})} distinct, "
+          f"{1 - counts['answer'] / len(sampled):.0%} not answers")
     print(f"  original engine: {theirs:,.0f} programs/s   run_batch: {ours:,.0f} programs/s   "
           f"{ours / theirs:.2f}x   target >= 8x")
     return 0

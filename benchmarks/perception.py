@@ -157,8 +157,8 @@ def run_video(index: int, samples: int, noise_seed: int) -> dict[str, Any]:
                                           "cause": _cause(sim, world, programs[i], truth[i], index * 1000 + i)})
     base = export_perceived(sim, velocities=False)
     for k, (label, noise) in enumerate(NOISE_SWEEP):
-        scene: PerceivedScene = degrade(base, noise, noise_seed * 1_000_003 + index * 101 + k)
-        model = SceneModel(scene)
+        noisy: PerceivedScene = degrade(base, noise, noise_seed * 1_000_003 + index * 101 + k)
+        model = SceneModel(noisy)
         t = time.perf_counter()
         answers = _answers(model.simulation(), programs)
         map_time = time.perf_counter() - t
@@ -171,7 +171,7 @@ def run_video(index: int, samples: int, noise_seed: int) -> dict[str, Any]:
         }
         if k == 4:  # attribute confusion 5 %: uncertain readings; the distribution timed on a fresh model
             t = time.perf_counter()
-            answer_distributions(SceneModel(scene), programs, samples=samples, seed=index)
+            answer_distributions(SceneModel(noisy), programs, samples=samples, seed=index)
             dist_time = time.perf_counter() - t
             out["time"]["most likely world, attribute confusion 5 %"] = map_time
             out["time"][f"answer distribution ({samples} readings), attribute confusion 5 %"] = dist_time

@@ -35,7 +35,7 @@ from craft_dsl.simulation import Simulation
 
 
 def make_questions(seeds: int) -> list[tuple[Simulation, dict[str, Any]]]:
-    out = []
+    out: list[tuple[Simulation, dict[str, Any]]] = []
     for scene in range(1, 21):
         for seed in range(seeds):
             sim = simulate(scene, seed)

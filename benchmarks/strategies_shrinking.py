@@ -17,6 +17,7 @@ import argparse
 import re
 import statistics
 import time
+from functools import partial
 
 from hypothesis import find, settings
 
@@ -52,6 +53,11 @@ def smallest_sizes() -> dict[str, int]:
     return sizes
 
 
+def _mentions(pattern: re.Pattern[str], program: Program) -> bool:
+    """``program``'s text calls the module ``pattern`` matches."""
+    return bool(pattern.search(str(program)))
+
+
 def calls(program: Program) -> int:
     return str(program).count("(")
 
@@ -71,7 +77,7 @@ def main() -> None:
         # programs of the module's output type: the smallest program using a module has it at the root, and
         # hypothesis draws unevenly enough that a few modules would need many examples of programs() first
         outputs = tuple(dict.fromkeys(ov.output for ov in REGISTRY[name].overloads))
-        found = find(programs(outputs), lambda p, pattern=pattern: bool(pattern.search(str(p))), settings=quiet)
+        found = find(programs(outputs), partial(_mentions, pattern), settings=quiet)
         ratio = calls(found) / smallest[name]
         ratios.append(ratio)
         text = str(found).replace("\n", "; ")

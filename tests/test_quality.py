@@ -22,5 +22,5 @@ def test_ruff_clean() -> None:
 
 
 def test_mypy_clean() -> None:
-    res = _run(sys.executable, "-m", "mypy", "craft_dsl")
+    res = _run(sys.executable, "-m", "mypy", "craft_dsl", "benchmarks")
     assert res.returncode == 0, res.stdout + res.stderr
