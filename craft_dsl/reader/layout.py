@@ -197,14 +197,14 @@ def fit_statics(model: LayoutModel, lum: np.ndarray, weight: np.ndarray, search_
 
         return residual, float((sw * sw).sum())
 
-    residual, _ = make_residual(4.0, 4)
-    cost = float(np.sum(residual(u) ** 2))
+    coarse, _ = make_residual(4.0, 4)  # the searches' picture: blurred by 4 px, a quarter of the resolution
+    cost = float(np.sum(coarse(u) ** 2))
     for _ in range(search_rounds):
         for j in range(len(paths)):
             for value in np.linspace(0.0, 1.0, search_points):
                 trial = u.copy()
                 trial[j] = value
-                c = float(np.sum(residual(trial) ** 2))
+                c = float(np.sum(coarse(trial) ** 2))
                 if c < cost:
                     u, cost = trial, c
     u, rms, jtj = _gauss_newton_levels(make_residual, u, len(paths))
@@ -212,7 +212,6 @@ def fit_statics(model: LayoutModel, lum: np.ndarray, weight: np.ndarray, search_
         # Gauss-Newton stops where one edge of a static is all the picture says about a draw (an incline of two
         # overlapping platforms whose far end leaves the picture: where the upper one starts): the least
         # determined directions are searched along whole, and the fit redone from the best place found
-        coarse, _ = make_residual(4.0, 4)
         start_cost = float(np.sum(coarse(u) ** 2))
         found, found_cost = u, start_cost
         for v in _weak_directions(jtj):

@@ -56,7 +56,7 @@ def shrink(mask: np.ndarray, iterations: int = 1) -> np.ndarray:
 def _dilate_disk(mask: np.ndarray, radius: int) -> np.ndarray:
     """Dilation by :func:`disk` (pixels beyond the edge unset): each row of the disk is a run of columns, so the
     mask is widened by each run's half-width and the widened rows shifted by the row's offset."""
-    widths = [int(np.sqrt(radius * radius + radius - dy * dy)) for dy in range(radius + 1)]
+    widths = [int(row.sum()) // 2 for row in disk(radius)[radius:]]  # half-width of each row, dy = 0 .. radius
     widened = {0: mask}
     cur = mask
     for w in range(1, max(widths) + 1):
