@@ -174,6 +174,7 @@ class _Batch:
     def __init__(self) -> None:
         self.builder = ProgramBuilder()
         self.nodes = self.builder.nodes
+        self._add: Callable[[RawNode], int] = self.builder._add
         self.token_memo: dict[Any, Item] = {}
         #: Modules of one argument: per token, the memo by argument (cheaper than a (token, argument) key).
         self.unary: dict[str, dict[Item, Item]] = {}
@@ -238,6 +239,57 @@ class _Batch:
         if order is not None:
             ids = [ids[j] for j in order]
         return self._checked_call(spec, ids, sides)
+
+    def _unary(self, kind: _TokenKind, a: Item) -> Item:
+        """What ``_call(kind, (a,))`` gives, with the common call (a module of one term input, no side input,
+        no wrapping) made here."""
+        if type(a) is int:
+            if a == _TYPE_ERR:  # an error in the argument is one in the call
+                return _TYPE_ERR
+            spec = kind[1]
+            if a >= 0 and spec.n_inputs == 1 and not kind[3]:
+                name = spec.name
+                key = (name, self.nodes[a][3])
+                res = _RESOLUTIONS.get(key)
+                if res is not None:
+                    if not res[2]:
+                        return self._add((name, (a,), (), res[1], res[0]))
+                elif key in _NO_OVERLOAD:
+                    return _TYPE_ERR
+        return self._call(kind, (a,))
+
+    def _binary(self, kind: _TokenKind, a: Item, b: Item) -> Item:
+        """What ``_call(kind, (a, b))`` gives, with the common calls (two term inputs in token order, or one
+        term and a value word as side input, no wrapping) made here."""
+        if a == _TYPE_ERR and b not in (_OPEN_OK, _OPEN_ERR):  # an error in an argument is one in the call
+            return _TYPE_ERR
+        spec = kind[1]
+        if type(a) is int and a >= 0 and not kind[3]:
+            name = spec.name
+            nodes = self.nodes
+            key: tuple[Any, ...]
+            if type(b) is int:
+                if b == _TYPE_ERR:
+                    return _TYPE_ERR
+                if b >= 0 and spec.n_inputs == 2 and kind[2] is None:
+                    key = (name, nodes[a][3], nodes[b][3])
+                    res = _RESOLUTIONS.get(key)
+                    if res is not None:
+                        if not res[2]:
+                            return self._add((name, (a, b), (), res[1], res[0]))
+                    elif key in _NO_OVERLOAD:
+                        return _TYPE_ERR
+            elif spec.n_inputs == 1 and b in _TOKEN_KINDS:
+                key = (name, nodes[a][3])
+                res = _RESOLUTIONS.get(key)
+                if res is not None:
+                    if not res[2]:
+                        value = _VALUES[spec.side_inputs[0]].get(b)  # type: ignore[arg-type]
+                        if value is not None:
+                            return self._add((name, (a,), (value,), res[1], res[0]))
+                elif key in _NO_OVERLOAD:
+                    return _TYPE_ERR
+        return self._call(kind, (a, b))
 
     def _checked_call(self, spec: ModuleSpec, ids: list[int], sides: Sequence[Value]) -> int:
         """What ``builder.call(spec, ids, sides)`` gives (the caller has checked the numbers of arguments), or
@@ -312,13 +364,15 @@ class _Batch:
         return entry
 
     def read_prefix(self, words: Sequence[Any]) -> int | None:
-        """Prefix tokens, read right to left: a stack of complete terms (see the module docstring)."""
+        """Prefix tokens, read right to left: a stack of complete terms (see the module docstring), its top
+        item held apart (``top``, None while the stack is empty) so that a call replaces it in place."""
         arity = (_ARITY or _token_arity()).get
         entry_of = self.words.get
-        call = self._call
-        stack: list[Item] = []
+        unary, binary = self._unary, self._binary
+        stack: list[Item] = []  # the items below the top one, the deepest first
         push = stack.append
         pop = stack.pop
+        top: Item | None = None
         item: Item
         for word in reversed(words):
             entry = entry_of(word)
@@ -327,49 +381,52 @@ class _Batch:
                 if n is None:
                     if not _extra_token(word):
                         return None
-                    push(word)
+                    if top is not None:
+                        push(top)
+                    top = word
                     continue
                 entry = self._word(word, n)
             code, memo, kind = entry
             if code == 1:  # a module of one argument (the most common token): its memo by argument
-                if stack:
-                    top = stack[-1]
+                if top is not None:
                     item = memo.get(top)
                     if item is None:
-                        item = memo[top] = call(kind, (top,))
-                    stack[-1] = item
+                        item = memo[top] = unary(kind, top)
+                    top = item
                 else:
-                    push(_OPEN_OK)
-            elif code == -1:
-                push(word)
+                    top = _OPEN_OK
             elif code == 2:  # its memo by (first argument, second argument)
-                if len(stack) >= 2:
-                    pair = (pop(), stack[-1])
+                if stack:
+                    pair = (top, pop())
                     item = memo.get(pair)
                     if item is None:
-                        item = memo[pair] = call(kind, pair)
-                    stack[-1] = item
+                        item = memo[pair] = binary(kind, *pair)
+                    top = item
                 else:  # fewer terms than arguments: the call runs past the end
-                    stack.reverse()
-                    stack[:] = [self._open(kind, stack)]
+                    top = self._open(kind, [] if top is None else [top])
+            elif code == -1:
+                if top is not None:
+                    push(top)
+                top = word
             elif code == 0:
-                push(memo)  # its node, made with the entry
-            elif len(stack) >= code:
-                args = stack[-code:]
-                args.reverse()
+                if top is not None:
+                    push(top)
+                top = memo  # its node, made with the entry
+            elif top is not None and len(stack) >= code - 1:
+                args = [top, *stack[len(stack) - code + 1:][::-1]]
                 key = (word, *args)
                 found = self.token_memo.get(key)
                 if found is None:
-                    found = self.token_memo[key] = call(kind, args)
-                del stack[-code:]
-                push(found)
+                    found = self.token_memo[key] = self._call(kind, args)
+                del stack[len(stack) - code + 1:]
+                top = found
             else:
-                stack.reverse()
-                stack[:] = [self._open(kind, stack)]
-        top = stack[-1]
+                args = [] if top is None else [top, *stack[::-1]]
+                stack.clear()
+                top = self._open(kind, args)
         if type(top) is str:  # the sequence starts with a value
             return _SYNTAX
-        if len(stack) == 1:
+        if not stack:
             if top >= 0:  # type: ignore[operator]
                 return top  # type: ignore[return-value]
             return _SYNTAX if top == _OPEN_OK else _TYPE
@@ -873,27 +930,25 @@ def _read_token_lists(batch: _Batch, programs: Sequence[Any], form: str) -> list
     any other batch (:func:`_read_each` reads it)."""
     if not programs or set(map(type, programs)) != {list} or not all(programs):
         return None
-    keys = list(map(tuple, programs))
+    index: dict[tuple[Any, ...], int] = {}  # distinct key -> its number, in the order of the first programs
+    setdefault = index.setdefault
     try:
-        distinct: dict[tuple[Any, ...], Any] = dict.fromkeys(keys)
+        ids = [setdefault(tuple(p), len(index)) for p in programs]  # one hash per program
     except TypeError:  # a token that is not hashable
         return None
     reader = batch.read_prefix if form == "prefix" else batch.read_postfix
     answer_types = ANSWER_TYPES
     nodes = batch.nodes
-    first: dict[tuple[Any, ...], int] = {}  # the first program of each key, for the single-program reader
-    for key in distinct:  # in the order of the first programs: the first refused program is named
+    results: list[int] = []
+    for j, key in enumerate(index):  # in the order of the first programs: the first refused program is named
         result = reader(key)
         if result is None:
-            if not first:
-                for i, k in enumerate(keys):
-                    first.setdefault(k, i)
-            i = first[key]
+            i = ids.index(j)  # the first program of this key, for the single-program reader
             result = _alone(batch, programs[i], form, i)  # type: ignore[arg-type]
         elif result >= 0 and nodes[result][3] not in answer_types:
             result = _TYPE
-        distinct[key] = result
-    return list(map(distinct.__getitem__, keys))
+        results.append(result)
+    return list(map(results.__getitem__, ids))
 
 
 def _read_each(batch: _Batch, programs: Sequence[Any], form: ProgramForm | None) -> list[int]:
