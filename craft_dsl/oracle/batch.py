@@ -284,7 +284,7 @@ class _Batch:
                 res = _RESOLUTIONS.get(key)
                 if res is not None:
                     if not res[2]:
-                        value = _VALUES[spec.side_inputs[0]].get(b)  # type: ignore[arg-type]
+                        value = _VALUES[spec.side_inputs[0]].get(b)
                         if value is not None:
                             return self._add((name, (a,), (value,), res[1], res[0]))
                 elif key in _NO_OVERLOAD:
