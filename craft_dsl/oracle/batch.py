@@ -567,6 +567,55 @@ class _Batch:
             return None
 
     def _read_nodes(self, nodes: list[Any]) -> int | None:
+        """:meth:`_read_nodes_any` for node lists whose nodes all have exactly the keys ``type``, ``inputs``
+        (a list) and ``value_inputs`` (the shape :meth:`~craft_dsl.Program.to_nodes` writes), without the checks
+        that shape makes unnecessary; any other node list is read by :meth:`_read_nodes_any`."""
+        memo = self.node_memo
+        lookup = memo.get
+        built: list[int] = []
+        append = built.append
+        key: tuple[Any, ...]
+        try:
+            for node in nodes:
+                if type(node) is not dict or len(node) != 3:
+                    return self._read_nodes_any(nodes)
+                inputs = node["inputs"]
+                sides = node["value_inputs"]
+                if type(inputs) is not list:
+                    return None
+                n = len(inputs)
+                if n == 1:
+                    i = inputs[0]
+                    if type(i) is not int or i < 0:
+                        return None
+                    key = (node["type"], built[i])  # IndexError for an input that is not an earlier node
+                elif n == 0:
+                    key = (node["type"],)
+                else:
+                    for i in inputs:
+                        if type(i) is not int or i < 0:
+                            return None
+                    key = (node["type"], *[built[i] for i in inputs])
+                if sides:
+                    if type(sides) is not list:
+                        return None
+                    for v in sides:
+                        if type(v) is not str:
+                            return None
+                    key = (*key, *sides)
+                found = lookup(key)
+                if found is None:
+                    found = memo[key] = self._node_new(key, n, sides)
+                if found < 0:
+                    return None if found == _UNREAD else _TYPE
+                append(found)
+        except KeyError:  # another shape of node
+            return self._read_nodes_any(nodes)
+        except IndexError:
+            return None
+        return built[-1]
+
+    def _read_nodes_any(self, nodes: list[Any]) -> int | None:
         # A node's memo key is (type, *input node ids, *side values). The checks that depend only on the key
         # (the module name, the numbers of inputs and side inputs, the side values) are made once per key, by
         # _node_new; the ones a key does not fix (the dict, the input indexes, exact str side values) per node.
@@ -631,6 +680,12 @@ class _Batch:
         elif n_sides:
             return _UNREAD
         if n == 1:
+            if not sides:  # the common call (one term input, no side input, no wrapping) made here
+                a = key[1]
+                name = spec.name
+                res = _RESOLUTIONS.get((name, self.nodes[a][3]))
+                if res is not None and not res[2]:
+                    return self._add((name, (a,), (), res[1], res[0]))
             ids = [key[1]]
         else:
             ids = list(key[1:n + 1])
@@ -889,7 +944,8 @@ def _run(programs: Sequence[Any], sims: Simulation | Sequence[Simulation], sim_l
     batch = _Batch()
     # Read every distinct program once: `read[i]` is program i's answer node, or an error code. Programs are
     # the same when they are equal token lists (or strings) in the same form, or the same node-list object.
-    read = _read_token_lists(batch, programs, form) if form == "prefix" or form == "postfix" else None
+    read = (_read_token_lists(batch, programs, form) if form == "prefix" or form == "postfix"
+            else _read_node_lists(batch, programs) if form == "nodes" else None)
     if read is None:
         read = _read_each(batch, programs, form)
 
@@ -949,6 +1005,30 @@ def _read_token_lists(batch: _Batch, programs: Sequence[Any], form: str) -> list
             result = _TYPE
         results.append(result)
     return list(map(results.__getitem__, ids))
+
+
+def _read_node_lists(batch: _Batch, programs: Sequence[Any]) -> list[int] | None:
+    """The reading of a batch of node lists (every program a list), in one pass without the per-program
+    bookkeeping of :func:`_read_each`: node lists are not grouped (each is read through the memo of checked
+    nodes, which makes a repeated one cheap). None for any other batch."""
+    if not programs or set(map(type, programs)) != {list}:
+        return None
+    read_one = batch._read_nodes
+    answer_types = ANSWER_TYPES
+    nodes = batch.nodes
+    read: list[int] = []
+    append = read.append
+    for i, program in enumerate(programs):
+        try:
+            result = read_one(program) if program else None
+        except TypeError:  # an unhashable "type"
+            result = None
+        if result is None:
+            result = _alone(batch, program, "nodes", i)
+        elif result >= 0 and nodes[result][3] not in answer_types:
+            result = _TYPE
+        append(result)
+    return read
 
 
 def _read_each(batch: _Batch, programs: Sequence[Any], form: ProgramForm | None) -> list[int]:
