@@ -8,7 +8,9 @@ radius / sqrt(area), second moment / area) are measured in every frame where it 
 are its row. Printed per (shape, size), in the table's form: the median of the rows and their robust spread (1.4826 x
 median absolute deviation, at least the native table's spread), and how many bodies.
 
-    python benchmarks/shape_features.py --dataset DIR [--size 128] [--workers 2] [--limit N]
+    python benchmarks/shape_features.py --dataset DIR [--dataset DIR2 ...] [--size 128] [--workers 2] [--limit N]
+
+Several ``--dataset`` folders pool their bodies into one table.
 
 ``--size N`` reads copies made by ffmpeg as ``reader_robustness.py`` makes them (``scale=N:N``, its default bicubic,
 lossless H.264) instead of the files, decoded back to the reader's size as ``craft-dsl read`` does. No randomness:
@@ -90,24 +92,29 @@ def copies(videos: dict[int, Path], size: int, folder: Path, workers: int) -> di
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--dataset", required=True, help="a dataset folder written by craft-dsl generate --videos")
+    parser.add_argument("--dataset", required=True, action="append",
+                        help="a dataset folder written by craft-dsl generate --videos (repeat to pool several)")
     parser.add_argument("--size", type=int, help="read copies rescaled to this many pixels (default: the files)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--limit", type=int, help="only the first N test videos (a quick look)")
     args = parser.parse_args()
-    dataset = Path(args.dataset)
-    test = sorted({int(q["video_index"]) for name in ("random", "hard")
-                   for q in json.loads((dataset / f"split_info_{name}.json").read_text())["test"]})[:args.limit]
-    videos = find_videos(dataset, test)
-    with tempfile.TemporaryDirectory() as tmp:
-        if args.size:
-            videos = copies(videos, args.size, Path(tmp), args.workers)
-        with ProcessPoolExecutor(args.workers) as pool:
-            rows = [r for part in pool.map(_job, [(dataset, i, videos[i]) for i in test]) for r in part]
+    rows: list[Row] = []
+    count = 0
+    for folder in args.dataset:
+        dataset = Path(folder)
+        test = sorted({int(q["video_index"]) for name in ("random", "hard")
+                       for q in json.loads((dataset / f"split_info_{name}.json").read_text())["test"]})[:args.limit]
+        count += len(test)
+        videos = find_videos(dataset, test)
+        with tempfile.TemporaryDirectory() as tmp:
+            if args.size:
+                videos = copies(videos, args.size, Path(tmp), args.workers)
+            with ProcessPoolExecutor(args.workers) as pool:
+                rows += [r for part in pool.map(_job, [(dataset, i, videos[i]) for i in test]) for r in part]
     table: dict[tuple[str, str], list[tuple[float, float, float]]] = defaultdict(list)
     for shape, size, *features in rows:
         table[(shape, size)].append((features[0], features[1], features[2]))
-    print(f"{len(test)} test videos, {len(rows)} bodies named by their colour"
+    print(f"{count} test videos, {len(rows)} bodies named by their colour"
           + (f", copies at {args.size} px" if args.size else ""))
     for key in sorted(table):
         values = np.array(table[key])
