@@ -567,9 +567,11 @@ class _Batch:
             return None
 
     def _read_nodes(self, nodes: list[Any]) -> int | None:
-        """:meth:`_read_nodes_any` for node lists whose nodes all have exactly the keys ``type``, ``inputs``
-        (a list) and ``value_inputs`` (the shape :meth:`~craft_dsl.Program.to_nodes` writes), without the checks
-        that shape makes unnecessary; any other node list is read by :meth:`_read_nodes_any`."""
+        # A node's memo key is (type, *input node ids, *side values). The checks that depend only on the key
+        # (the module name, the numbers of inputs and side inputs, the side values) are made once per key, by
+        # _node_new; the ones a key does not fix (the dict, the input indexes, exact str side values) per node. A
+        # node with exactly the keys to_nodes() writes has its fields read directly, any other by _node_fields;
+        # an input that is not an earlier node raises IndexError (a negative one is refused first).
         memo = self.node_memo
         lookup = memo.get
         built: list[int] = []
@@ -577,10 +579,15 @@ class _Batch:
         key: tuple[Any, ...]
         try:
             for node in nodes:
-                if type(node) is not dict or len(node) != 3:
-                    return self._read_nodes_any(nodes)
-                inputs = node["inputs"]
-                sides = node["value_inputs"]
+                if type(node) is not dict:
+                    return None
+                if len(node) == 3:
+                    try:
+                        name, inputs, sides = node["type"], node["inputs"], node["value_inputs"]
+                    except KeyError:
+                        name, inputs, sides = _node_fields(node)
+                else:
+                    name, inputs, sides = _node_fields(node)
                 if type(inputs) is not list:
                     return None
                 n = len(inputs)
@@ -588,14 +595,14 @@ class _Batch:
                     i = inputs[0]
                     if type(i) is not int or i < 0:
                         return None
-                    key = (node["type"], built[i])  # IndexError for an input that is not an earlier node
+                    key = (name, built[i])
                 elif n == 0:
-                    key = (node["type"],)
+                    key = (name,)
                 else:
                     for i in inputs:
                         if type(i) is not int or i < 0:
                             return None
-                    key = (node["type"], *[built[i] for i in inputs])
+                    key = (name, *[built[i] for i in inputs])
                 if sides:
                     if type(sides) is not list:
                         return None
@@ -609,57 +616,8 @@ class _Batch:
                 if found < 0:
                     return None if found == _UNREAD else _TYPE
                 append(found)
-        except KeyError:  # another shape of node
-            return self._read_nodes_any(nodes)
         except IndexError:
             return None
-        return built[-1]
-
-    def _read_nodes_any(self, nodes: list[Any]) -> int | None:
-        # A node's memo key is (type, *input node ids, *side values). The checks that depend only on the key
-        # (the module name, the numbers of inputs and side inputs, the side values) are made once per key, by
-        # _node_new; the ones a key does not fix (the dict, the input indexes, exact str side values) per node.
-        memo = self.node_memo
-        lookup = memo.get
-        built: list[int] = []
-        append = built.append
-        key: tuple[Any, ...]
-        for k, node in enumerate(nodes):
-            if type(node) is not dict:
-                return None
-            name = node.get("type")
-            inputs = node.get("inputs")
-            sides = node.get("value_inputs")
-            if type(inputs) is not list:
-                return None
-            if not sides and (sides is None or len(node) > 3):  # as `value_inputs or side_inputs` is read
-                sides = node.get("side_inputs")
-            n = len(inputs)
-            if n == 1:
-                i = inputs[0]
-                if type(i) is not int or not 0 <= i < k:
-                    return None
-                key = (name, built[i])
-            elif n == 0:
-                key = (name,)
-            else:
-                for i in inputs:
-                    if type(i) is not int or not 0 <= i < k:
-                        return None
-                key = (name, *[built[i] for i in inputs])
-            if sides:
-                if type(sides) is not list:
-                    return None
-                for v in sides:
-                    if type(v) is not str:
-                        return None
-                key = (*key, *sides)
-            found = lookup(key)
-            if found is None:
-                found = memo[key] = self._node_new(key, n, sides)
-            if found < 0:
-                return None if found == _UNREAD else _TYPE
-            append(found)
         return built[-1]
 
     def _node_new(self, key: tuple[Any, ...], n: int, sides: list[str] | None) -> int:
@@ -807,6 +765,15 @@ class _Batch:
 #: How a node is evaluated: (shape, implementation, first input, second input, side value / literal / other).
 _Operation = tuple[int, Any, int, int, Any]
 _LITERAL, _NONE, _ONE, _ONE_SIDE, _TWO, _OTHER = range(6)
+
+
+def _node_fields(node: dict[str, Any]) -> tuple[Any, Any, Any]:
+    """A node's type, inputs and side inputs, as the single-program reader takes them: the side inputs are
+    ``value_inputs``, or ``side_inputs`` where ``value_inputs`` is missing (or empty beside other keys)."""
+    sides = node.get("value_inputs")
+    if not sides and (sides is None or len(node) > 3):
+        sides = node.get("side_inputs")
+    return node.get("type"), node.get("inputs"), sides
 
 
 def _extra_token(word: Any) -> bool:
