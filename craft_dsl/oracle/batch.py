@@ -322,7 +322,7 @@ class _Batch:
                 canonical.append(found)
             values = tuple(canonical)
         overload, output, wrap = res
-        add = self.builder._add
+        add = self._add
         if wrap:
             ids = list(ids)
             for k in wrap:
@@ -638,12 +638,6 @@ class _Batch:
         elif n_sides:
             return _UNREAD
         if n == 1:
-            if not sides:  # the common call (one term input, no side input, no wrapping) made here
-                a = key[1]
-                name = spec.name
-                res = _RESOLUTIONS.get((name, self.nodes[a][3]))
-                if res is not None and not res[2]:
-                    return self._add((name, (a,), (), res[1], res[0]))
             ids = [key[1]]
         else:
             ids = list(key[1:n + 1])
