@@ -364,74 +364,88 @@ class _Batch:
         return entry
 
     def read_prefix(self, words: Sequence[Any]) -> int | None:
-        """Prefix tokens, read right to left: a stack of complete terms (see the module docstring), its top
-        item held apart (``top``, None while the stack is empty) so that a call replaces it in place."""
+        """Prefix tokens, read right to left (see :meth:`read_prefix_all`)."""
+        return self.read_prefix_all((words,))[0]
+
+    def read_prefix_all(self, sequences: Sequence[Sequence[Any]]) -> list[int | None]:
+        """Each sequence of prefix tokens, read right to left: a stack of complete terms (see the module
+        docstring), its top item held apart (``top``, None while the stack is empty) so that a call replaces it
+        in place. One loop for the whole batch: the reader's set-up is paid once, not per sequence."""
         arity = (_ARITY or _token_arity()).get
         entry_of = self.words.get
         unary, binary = self._unary, self._binary
         stack: list[Item] = []  # the items below the top one, the deepest first
         push = stack.append
         pop = stack.pop
-        top: Item | None = None
+        results: list[int | None] = []
+        result: int | None
         item: Item
-        for word in reversed(words):
-            entry = entry_of(word)
-            if entry is None:
-                n = arity(word)
-                if n is None:
-                    if not _extra_token(word):
-                        return None
+        for words in sequences:
+            stack.clear()
+            top: Item | None = None
+            for word in reversed(words):
+                entry = entry_of(word)
+                if entry is None:
+                    n = arity(word)
+                    if n is None:
+                        if not _extra_token(word):
+                            result = None
+                            break
+                        if top is not None:
+                            push(top)
+                        top = word
+                        continue
+                    entry = self._word(word, n)
+                code, memo, kind = entry
+                if code == 1:  # a module of one argument (the most common token): its memo by argument
+                    if top is not None:
+                        item = memo.get(top)
+                        if item is None:
+                            item = memo[top] = unary(kind, top)
+                        top = item
+                    else:
+                        top = _OPEN_OK
+                elif code == 2:  # its memo by (first argument, second argument)
+                    if stack:
+                        pair = (top, pop())
+                        item = memo.get(pair)
+                        if item is None:
+                            item = memo[pair] = binary(kind, *pair)
+                        top = item
+                    else:  # fewer terms than arguments: the call runs past the end
+                        top = self._open(kind, [] if top is None else [top])
+                elif code == -1:
                     if top is not None:
                         push(top)
                     top = word
-                    continue
-                entry = self._word(word, n)
-            code, memo, kind = entry
-            if code == 1:  # a module of one argument (the most common token): its memo by argument
-                if top is not None:
-                    item = memo.get(top)
-                    if item is None:
-                        item = memo[top] = unary(kind, top)
-                    top = item
+                elif code == 0:
+                    if top is not None:
+                        push(top)
+                    top = memo  # its node, made with the entry
+                elif top is not None and len(stack) >= code - 1:
+                    args = [top, *stack[len(stack) - code + 1:][::-1]]
+                    key = (word, *args)
+                    found = self.token_memo.get(key)
+                    if found is None:
+                        found = self.token_memo[key] = self._call(kind, args)
+                    del stack[len(stack) - code + 1:]
+                    top = found
                 else:
-                    top = _OPEN_OK
-            elif code == 2:  # its memo by (first argument, second argument)
-                if stack:
-                    pair = (top, pop())
-                    item = memo.get(pair)
-                    if item is None:
-                        item = memo[pair] = binary(kind, *pair)
-                    top = item
-                else:  # fewer terms than arguments: the call runs past the end
-                    top = self._open(kind, [] if top is None else [top])
-            elif code == -1:
-                if top is not None:
-                    push(top)
-                top = word
-            elif code == 0:
-                if top is not None:
-                    push(top)
-                top = memo  # its node, made with the entry
-            elif top is not None and len(stack) >= code - 1:
-                args = [top, *stack[len(stack) - code + 1:][::-1]]
-                key = (word, *args)
-                found = self.token_memo.get(key)
-                if found is None:
-                    found = self.token_memo[key] = self._call(kind, args)
-                del stack[len(stack) - code + 1:]
-                top = found
+                    args = [] if top is None else [top, *stack[::-1]]
+                    stack.clear()
+                    top = self._open(kind, args)
             else:
-                args = [] if top is None else [top, *stack[::-1]]
-                stack.clear()
-                top = self._open(kind, args)
-        if type(top) is str:  # the sequence starts with a value
-            return _SYNTAX
-        if not stack:
-            if top >= 0:  # type: ignore[operator]
-                return top  # type: ignore[return-value]
-            return _SYNTAX if top == _OPEN_OK else _TYPE
-        # The term starting at token 0 ends before the sequence does: too many tokens, unless it has a type error.
-        return _TYPE if top == _TYPE_ERR else _SYNTAX
+                if type(top) is str:  # the sequence starts with a value
+                    result = _SYNTAX
+                elif not stack:
+                    if top >= 0:  # type: ignore[operator]
+                        result = top  # type: ignore[assignment]
+                    else:
+                        result = _SYNTAX if top == _OPEN_OK else _TYPE
+                else:  # the term starting at token 0 ends before the sequence does: too many tokens, unless
+                    result = _TYPE if top == _TYPE_ERR else _SYNTAX  # it has a type error
+            results.append(result)
+        return results
 
     def read_postfix(self, words: Sequence[Any]) -> int | None:
         """Postfix tokens, left to right; the first error decides, as in the token reader."""
@@ -953,12 +967,12 @@ def _read_token_lists(batch: _Batch, programs: Sequence[Any], form: str) -> list
         ids = [setdefault(tuple(p), len(index)) for p in programs]  # one hash per program
     except TypeError:  # a token that is not hashable
         return None
-    reader = batch.read_prefix if form == "prefix" else batch.read_postfix
+    keys = list(index)  # in the order of the first programs: the first refused program is named
+    read = batch.read_prefix_all(keys) if form == "prefix" else list(map(batch.read_postfix, keys))
     answer_types = ANSWER_TYPES
     nodes = batch.nodes
     results: list[int] = []
-    for j, key in enumerate(index):  # in the order of the first programs: the first refused program is named
-        result = reader(key)
+    for j, result in enumerate(read):
         if result is None:
             i = ids.index(j)  # the first program of this key, for the single-program reader
             result = _alone(batch, programs[i], form, i)  # type: ignore[arg-type]
