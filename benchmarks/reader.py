@@ -42,7 +42,7 @@ import time
 from collections import Counter, defaultdict
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from reader_calibration import reliability
@@ -181,6 +181,39 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
             "questions": records}
 
 
+class HeldOutQuestions(NamedTuple):
+    """A generated dataset's test questions as the reader gets them, and the answers it is scored against."""
+
+    parts: dict[str, set[tuple[int, int]]]  # split -> (video_index, question_index) of its test part
+    truth: dict[str, Any]  # question key ("<video>_<question>") -> the dataset's answer
+    template: dict[str, str]  # question key -> template id
+    by_video: dict[int, list[Question]]  # video index -> its test questions, text only
+
+
+def held_out_questions(root: Path, all_questions: bool = False) -> HeldOutQuestions:
+    """The test parts of both splits of the dataset in ``root`` (every question too, as part ``all``, with
+    ``all_questions``), read through a questions file holding only (video_index, question_index, question)."""
+    records = read_minimal(root / "dataset_minimal.json")
+    template = {f"{q.video_index}_{q.question_index}": q.template_id for q in records}
+    truth = {f"{q.video_index}_{q.question_index}": q.answer for q in records}
+    parts = {split: read_split(root / f"split_info_{split}.json", "test") for split in ("random", "hard")}
+    if all_questions:
+        parts["all"] = {(q.video_index, q.question_index) for q in records}
+    wanted = set().union(*parts.values())
+    # the reader's input: (video_index, question_index, question) of each test question, nothing else
+    raw = json.loads((root / "dataset_minimal.json").read_text())
+    stripped = [{k: r[k] for k in ("video_index", "question_index", "question")} for r in raw
+                if (r["video_index"], r["question_index"]) in wanted]
+    with tempfile.TemporaryDirectory() as tmp:
+        qfile = Path(tmp) / "questions.json"
+        qfile.write_text(json.dumps(stripped))
+        questions = read_questions(qfile)
+    by_video: dict[int, list[Question]] = defaultdict(list)
+    for q in questions:
+        by_video[q.video_index].append(q)
+    return HeldOutQuestions(parts, truth, template, dict(by_video))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--dataset", help="a dataset generated with --videos")
@@ -212,24 +245,8 @@ def main() -> None:
         root = Path(args.dataset)
     else:
         parser.error("give --dataset DIR or --generate SIZE --out DIR")
-    records = read_minimal(root / "dataset_minimal.json")
-    template = {f"{q.video_index}_{q.question_index}": q.template_id for q in records}
-    truth = {f"{q.video_index}_{q.question_index}": q.answer for q in records}
-    parts = {split: read_split(root / f"split_info_{split}.json", "test") for split in ("random", "hard")}
-    if args.all_questions:
-        parts["all"] = {(q.video_index, q.question_index) for q in records}
-    wanted = set().union(*parts.values())
-    # the reader's input: (video_index, question_index, question) of each test question, nothing else
-    raw = json.loads((root / "dataset_minimal.json").read_text())
-    stripped = [{k: r[k] for k in ("video_index", "question_index", "question")} for r in raw
-                if (r["video_index"], r["question_index"]) in wanted]
-    with tempfile.TemporaryDirectory() as tmp:
-        qfile = Path(tmp) / "questions.json"
-        qfile.write_text(json.dumps(stripped))
-        questions = read_questions(qfile)
-    by_video: dict[int, list[Question]] = defaultdict(list)
-    for q in questions:
-        by_video[q.video_index].append(q)
+    tests = held_out_questions(root, args.all_questions)
+    parts, truth, template, by_video = tests.parts, tests.truth, tests.template, tests.by_video
     videos = sorted(by_video)[: args.limit] if args.limit else sorted(by_video)
     if args.only:
         chosen = set(parse_ranges(args.only, "--only", 0, 10 ** 9, "video indices"))
