@@ -12,6 +12,7 @@ from craft_dsl.reader.track import (
     TrackedObject,
     classify_shape,
     count_per_color,
+    pair_twins,
     purity,
     relink_merges,
     select_objects,
@@ -133,3 +134,36 @@ def test_a_softened_small_body_outranks_the_gray_ring_of_another_body_s_eye() ->
     body.blobs = body.blobs + [None] * 20
     frames = np.concatenate([picture, right[180:]])
     assert select_objects([ring, body], 1, frames) == [body]
+
+
+def test_two_bodies_of_one_colour_at_rest_together_are_not_measured_as_one() -> None:
+    # a small yellow circle rolls up to a large one and rests 0.4 m from it: two blobs on the detection grid, one
+    # piece at full resolution; measured as either body, the pair reads as a small triangle
+    bodies = [make_static(0, "wall_l"), make_static(0, "wall_r"), make_static(0, "ground"),
+              make_static(0, "basket", (12.0, -1.2)),
+              make_dynamic(0, "circle", "yellow", "large", (-10.0, 10.0)),
+              make_dynamic(0, "circle", "yellow", "small", (0.0, 9.0))]
+    world = WorldSpec(bodies=assign_uids(bodies), scene_id=None, seed=0)
+    steps = 60
+    pos = np.zeros((steps + 1, len(bodies), 2))
+    for i, b in enumerate(world.bodies):
+        pos[:, i] = b.position
+    pos[:, 5, 0] = np.maximum(-6.6, -0.34 * np.arange(steps + 1))  # apart for 20 frames, then at rest beside it
+    frames = render_frames(simulation_from_rows(world, pos, np.zeros((steps + 1, len(bodies)))))
+    background = static_layer(WorldSpec(bodies=tuple(b for b in world.bodies if not b.dynamic)), 256)
+    tracked = track(blobs(grid_labels(frames, background), grid_rims(background)), len(frames))
+    assert sorted(len(o.seen()) for o in tracked) == [steps, steps]  # two blobs in every frame
+    large = max(tracked, key=lambda o: o.blobs[0].area)  # type: ignore[union-attr]
+
+    alone = _copies([large])[0]
+    classify_shape(alone, frames, background)
+    assert alone.best() != ("circle", "large")  # what happens without its twin: the pair measured as one body
+
+    objects = _copies(tracked)
+    pair_twins(objects)
+    assert [len(o.twins) for o in objects] == [1, 1]
+    paired = next(o for o in objects if o.blobs == large.blobs)
+    classify_shape(paired, frames, background)
+    assert paired.best() == ("circle", "large")
+    resting = [k for k, m in paired.measurements.items() if k >= 25]
+    assert resting and not any(paired.measurements[k].complete for k in resting)

@@ -37,6 +37,7 @@ from .track import (
     classify_shape,
     measure_frames,
     merge_colour_splits,
+    pair_twins,
     refine_frames,
     relink_merges,
     select_objects,
@@ -103,6 +104,7 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
                              len(model.layout.dynamic), frames)
     for obj in objects:
         obj.source_size = source_size if source_size is not None and source_size != frames.shape[1] else None
+    pair_twins(objects)
     relink_merges(objects, frames, background)
     for obj in objects:
         classify_shape(obj, frames, background)

@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from collections import defaultdict
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -137,6 +137,8 @@ class TrackedObject:
     poses: dict[int, tuple[float, float, float]] = field(default_factory=dict)  # render-and-compare (x, y, angle)
     pose_shape: tuple[str, str] | None = None  # the (shape, size) the poses were fitted as
     source_size: int | None = None  # the video's frame size before it was rescaled to DEFAULT_SIZE (None: not rescaled)
+    #: The other tracks of its colour (:func:`pair_twins`): a piece that reaches one of their blobs covers both.
+    twins: list[TrackedObject] = field(default_factory=list, repr=False, compare=False)
 
     @property
     def color_name(self) -> str:
@@ -482,8 +484,23 @@ def select_objects(objects: list[TrackedObject], count: int | None, frames: np.n
     return [o for o in objects if id(o) in keep]
 
 
+def pair_twins(objects: Sequence[TrackedObject]) -> None:
+    """Give each track the other tracks of its colour (:attr:`TrackedObject.twins`). Two bodies of one colour at rest
+    against each other (in the basket, say) stay two blobs on the half-resolution grid but one closed piece at full
+    resolution: their union, measured as if it were either body, reads as neither (two yellow circles, large and
+    small, both read as small triangles)."""
+    by_colour: dict[int, list[TrackedObject]] = defaultdict(list)
+    for obj in objects:
+        by_colour[obj.color].append(obj)
+    for tracks in by_colour.values():
+        for obj in tracks:
+            obj.twins = [t for t in tracks if t is not obj]
+
+
 def measure_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, which: Sequence[int]) -> None:
-    """Full-resolution measurements of ``obj`` in the frames ``which`` (where it has a blob); cached on it."""
+    """Full-resolution measurements of ``obj`` in the frames ``which`` (where it has a blob); cached on it. A
+    measurement whose piece reaches the blob centre of a twin (:func:`pair_twins`) in that frame covers both bodies:
+    it is kept, marked not complete."""
     size = frames.shape[1]
     half = WINDOW // 2
     for k in which:
@@ -496,8 +513,12 @@ def measure_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarra
         y0 = min(max(int(b.y) - half, 0), size - WINDOW)
         m = measure(frames[k, y0:y0 + WINDOW, x0:x0 + WINDOW], background[y0:y0 + WINDOW, x0:x0 + WINDOW],
                     obj.color, (y0, x0), seed=(int(b.y) - y0, int(b.x) - x0))
-        if m is not None:
-            obj.measurements[k] = m
+        if m is None:
+            continue
+        if m.complete and any((t := twin.blobs[k]) is not None and math.hypot(t.x - m.x, t.y - m.y) <= m.radius
+                              for twin in obj.twins):
+            m = replace(m, complete=False)
+        obj.measurements[k] = m
 
 
 def _measured_poses(obj: TrackedObject, which: Sequence[int], shape: str, size: str
