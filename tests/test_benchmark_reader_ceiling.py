@@ -2,29 +2,21 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 import pytest
 
+from tests.script_module import load_script
+
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
 @pytest.fixture(scope="module")
 def bench() -> ModuleType:
-    sys.path.insert(0, str(BENCHMARKS))  # the script imports its siblings reader and reader_calibration
-    try:
-        spec = importlib.util.spec_from_file_location("reader_ceiling", BENCHMARKS / "reader_ceiling.py")
-        assert spec is not None and spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(BENCHMARKS))
-    return module
+    return load_script(BENCHMARKS / "reader_ceiling.py", "reader_ceiling")
 
 
 def test_the_table_counts_accuracy_per_column_and_the_shared_wrong_answers(bench: ModuleType) -> None:

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -11,21 +9,14 @@ from typing import Any
 import pytest
 
 from craft_dsl.reader.reconstruct import MAX_ANCHORS
+from tests.script_module import load_script
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 
 
 @pytest.fixture(scope="module")
 def bench() -> ModuleType:
-    sys.path.insert(0, str(BENCHMARKS))  # the script imports its sibling reader_calibration
-    try:
-        spec = importlib.util.spec_from_file_location("reader_benchmark", BENCHMARKS / "reader.py")
-        assert spec is not None and spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(BENCHMARKS))
-    return module
+    return load_script(BENCHMARKS / "reader.py", "reader_benchmark")
 
 
 def _video(anchors: int, reconstruct: float, tried: int = 1) -> dict[str, Any]:

@@ -3,10 +3,8 @@ frames show the steps stated (ffmpeg's ``fps=10`` 3 steps early, ``fps=10:round=
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
-import sys
 from pathlib import Path
 from types import ModuleType
 
@@ -17,6 +15,7 @@ from craft_dsl.physics import simulate
 from craft_dsl.reader.answer import find_videos
 from craft_dsl.reader.video import decode
 from craft_dsl.render.video import write_video
+from tests.script_module import load_script
 
 SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "reader_robustness.py"
 STEPS = 60
@@ -24,12 +23,7 @@ STEPS = 60
 
 @pytest.fixture(scope="module")
 def rr() -> ModuleType:
-    spec = importlib.util.spec_from_file_location("reader_robustness", SCRIPT)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
-    return module
+    return load_script(SCRIPT, "reader_robustness")
 
 
 @pytest.fixture(scope="module")
