@@ -573,69 +573,81 @@ class _Batch:
     def read_nodes(self, nodes: Any) -> int | None:
         """A node list of plain nodes (dicts whose ``type``, ``inputs`` and side inputs are well formed), node
         by node with a memo of checked nodes; the first type error decides; None for anything else."""
-        if type(nodes) is not list or not nodes:
-            return None
-        try:
-            return self._read_nodes(nodes)
-        except TypeError:  # an unhashable "type"
-            return None
+        return self.read_node_lists_all((nodes,))[0]
 
-    def _read_nodes(self, nodes: list[Any]) -> int | None:
-        # A node's memo key is (type, *input node ids, *side values). The checks that depend only on the key
-        # (the module name, the numbers of inputs and side inputs, the side values) are made once per key, by
-        # _node_new; the ones a key does not fix (the dict, the input indexes, exact str side values) per node. A
-        # node with exactly the keys to_nodes() writes has its fields read directly, any other by _node_fields;
-        # an input that is not an earlier node raises IndexError (a negative one is refused first).
+    def read_node_lists_all(self, programs: Sequence[Any]) -> list[int | None]:
+        """Each node list: its root node, :data:`_TYPE` where the first type error decides, or None where the
+        single-program reader must read it (an empty or malformed list, an unknown name, an input that is not an
+        earlier node, an unhashable "type"). One loop for the whole batch: the reader's set-up is paid once, not per
+        program.
+
+        A node's memo key is (type, *input node ids, *side values). The checks that depend only on the key (the
+        module name, the numbers of inputs and side inputs, the side values) are made once per key, by _node_new;
+        the ones a key does not fix (the dict, the input indexes, exact str side values) per node. A node with
+        exactly the keys to_nodes() writes has its fields read directly, any other by _node_fields; an input that
+        is not an earlier node raises IndexError (a negative one is refused first)."""
         memo = self.node_memo
         lookup = memo.get
-        built: list[int] = []
-        append = built.append
+        node_new = self._node_new
+        results: list[int | None] = []
+        result: int | None
         key: tuple[Any, ...]
-        try:
-            for node in nodes:
-                if type(node) is not dict:
-                    return None
-                if len(node) == 3:
-                    try:
-                        name, inputs, sides = node["type"], node["inputs"], node["value_inputs"]
-                    except KeyError:
+        for nodes in programs:
+            if type(nodes) is not list or not nodes:
+                results.append(None)
+                continue
+            built: list[int] = []
+            append = built.append
+            result = None
+            try:
+                for node in nodes:
+                    if type(node) is not dict:
+                        raise _Refused
+                    if len(node) == 3:
+                        try:
+                            name, inputs, sides = node["type"], node["inputs"], node["value_inputs"]
+                        except KeyError:
+                            name, inputs, sides = _node_fields(node)
+                    else:
                         name, inputs, sides = _node_fields(node)
-                else:
-                    name, inputs, sides = _node_fields(node)
-                if type(inputs) is not list:
-                    return None
-                n = len(inputs)
-                if n == 1:
-                    i = inputs[0]
-                    if type(i) is not int or i < 0:
-                        return None
-                    key = (name, built[i])
-                elif n == 0:
-                    key = (name,)
-                else:
-                    for i in inputs:
+                    if type(inputs) is not list:
+                        raise _Refused
+                    n = len(inputs)
+                    if n == 1:
+                        i = inputs[0]
                         if type(i) is not int or i < 0:
-                            return None
-                    key = (name, *[built[i] for i in inputs])
-                if sides:
-                    if type(sides) is not list:
-                        return None
-                    for v in sides:
-                        if type(v) is not str:
-                            return None
-                    key = (*key, *sides)
-                found = lookup(key)
-                if found is None:
-                    found = memo[key] = self._node_new(key, n, sides)
-                if found < 0:
-                    return None if found == _UNREAD else _TYPE
-                append(found)
-        except IndexError:
-            return None
-        return built[-1]
+                            raise _Refused
+                        key = (name, built[i])
+                    elif n == 0:
+                        key = (name,)
+                    else:
+                        for i in inputs:
+                            if type(i) is not int or i < 0:
+                                raise _Refused
+                        key = (name, *[built[i] for i in inputs])
+                    if sides:
+                        if type(sides) is not list:
+                            raise _Refused
+                        for v in sides:
+                            if type(v) is not str:
+                                raise _Refused
+                        key = (*key, *sides)
+                    found = lookup(key)
+                    if found is None:
+                        found = memo[key] = node_new(key, n, sides)
+                    if found < 0:
+                        result = None if found == _UNREAD else _TYPE
+                        break
+                    append(found)
+                else:
+                    result = built[-1]
+            except (_Refused, IndexError, TypeError):  # TypeError: an unhashable "type"
+                result = None
+            results.append(result)
+        return results
 
     def _node_new(self, key: tuple[Any, ...], n: int, sides: list[str] | None) -> int:
-        """The node of a memo key of :meth:`_read_nodes` (``n`` input ids after the name, then ``sides``), as
+        """The node of a memo key of :meth:`read_node_lists_all` (``n`` input ids after the name, then ``sides``), as
         :meth:`_checked_call` makes it; :data:`_TYPE_ERR` for a type error, :data:`_UNREAD` where the
         single-program reader must decide (an unknown name, other numbers of inputs or side inputs, a side value
         written as a parameter)."""
@@ -773,6 +785,10 @@ class _Batch:
 #: How a node is evaluated: (shape, implementation, first input, second input, side value / literal / other).
 _Operation = tuple[int, Any, int, int, Any]
 _LITERAL, _NONE, _ONE, _ONE_SIDE, _TWO, _OTHER = range(6)
+
+
+class _Refused(Exception):
+    """A node list the batch reader leaves to the single-program reader (raised inside its loop)."""
 
 
 def _node_fields(node: dict[str, Any]) -> tuple[Any, Any, Any]:
@@ -988,17 +1004,13 @@ def _read_node_lists(batch: _Batch, programs: Sequence[Any]) -> list[int] | None
     nodes, which makes a repeated one cheap). None for any other batch."""
     if not programs or set(map(type, programs)) != {list}:
         return None
-    read_one = batch._read_nodes
     answer_types = ANSWER_TYPES
     nodes = batch.nodes
     read: list[int] = []
     append = read.append
-    for i, program in enumerate(programs):
-        try:
-            result = read_one(program) if program else None
-        except TypeError:  # an unhashable "type"
-            result = None
+    for i, result in enumerate(batch.read_node_lists_all(programs)):
         if result is None:
+            program = programs[i]
             result = _alone(batch, program, "nodes", i)
         elif result >= 0 and nodes[result][3] not in answer_types:
             result = _TYPE
