@@ -397,10 +397,7 @@ def relink_merges(objects: list[TrackedObject], frames: np.ndarray, background: 
     track be one (shape, size) (the log-likelihoods of the parts' shape features, by :data:`RELINK_MARGIN`). Returns
     the number of swaps; measurements made are dropped (the blobs they belong to may have changed tracks)."""
     swaps = 0
-    by_colour: dict[int, list[TrackedObject]] = defaultdict(list)
-    for obj in objects:
-        by_colour[obj.color].append(obj)
-    for tracks in by_colour.values():
+    for tracks in _by_colour(objects):
         for i, a in enumerate(tracks):
             for b in tracks[i + 1:]:
                 for before, found, after in _merges(a, b):
@@ -489,12 +486,17 @@ def pair_twins(objects: Sequence[TrackedObject]) -> None:
     against each other (in the basket, say) stay two blobs on the half-resolution grid but one closed piece at full
     resolution: their union, measured as if it were either body, reads as neither (two yellow circles, large and
     small, both read as small triangles)."""
-    by_colour: dict[int, list[TrackedObject]] = defaultdict(list)
-    for obj in objects:
-        by_colour[obj.color].append(obj)
-    for tracks in by_colour.values():
+    for tracks in _by_colour(objects):
         for obj in tracks:
             obj.twins = [t for t in tracks if t is not obj]
+
+
+def _by_colour(objects: Sequence[TrackedObject]) -> list[list[TrackedObject]]:
+    """The tracks grouped by colour, each group in the order of ``objects``."""
+    groups: dict[int, list[TrackedObject]] = defaultdict(list)
+    for obj in objects:
+        groups[obj.color].append(obj)
+    return list(groups.values())
 
 
 def measure_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, which: Sequence[int]) -> None:
