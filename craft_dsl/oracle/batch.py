@@ -1010,8 +1010,7 @@ def _read_node_lists(batch: _Batch, programs: Sequence[Any]) -> list[int] | None
     append = read.append
     for i, result in enumerate(batch.read_node_lists_all(programs)):
         if result is None:
-            program = programs[i]
-            result = _alone(batch, program, "nodes", i)
+            result = _alone(batch, programs[i], "nodes", i)
         elif result >= 0 and nodes[result][3] not in answer_types:
             result = _TYPE
         append(result)
