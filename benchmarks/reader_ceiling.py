@@ -42,7 +42,7 @@ from craft_dsl.reader.answer import Question, answer_questions, find_videos
 from craft_dsl.reader.perceive import perceive_video
 from craft_dsl.verify.answers import answers_agree
 from craft_dsl.verify.categories import FAMILIES, family_of
-from craft_dsl.world import DEFAULT_STEPS
+from craft_dsl.world import DEFAULT_STEPS, WorldSpec
 
 READER = "reader"
 
@@ -68,22 +68,23 @@ def run_video(path: str, questions: list[Question], scene: int, seed: int, steps
     try:
         perception = perceive_video(path)
     except CraftError as err:
-        failed = [f"error: {err}"] * len(questions)
-        rows[READER] = failed
+        rows[READER] = [f"error: {err}"] * len(questions)
         fitted = None
     else:
         rows[READER] = [a.answer for a in answer_questions(perception.scene, questions)]
         fitted = perception.reconstruction.simulation.world_spec
     seconds[READER] = time.perf_counter() - t
+    starts: tuple[tuple[str, int | WorldSpec | None, int], ...] = (("true start", scene, seed),
+                                                                    ("reader's start", fitted, 0))
     for engine in engines:
-        for label, start in ((f"{engine} from the true start", None), (f"{engine} from the reader's start", fitted)):
-            t = time.perf_counter()
-            if start is None and label.endswith("reader's start"):
+        for name, start, start_seed in starts:
+            label = f"{engine} from the {name}"
+            if start is None:
                 rows[label] = rows[READER]  # the reader failed: nothing fitted
                 continue
+            t = time.perf_counter()
             try:
-                sim = (simulate(scene, seed=seed, steps=steps, engine=engine) if start is None
-                       else simulate(start, steps=steps, engine=engine))
+                sim = simulate(start, seed=start_seed, steps=steps, engine=engine)
                 rows[label] = _answers(sim, programs)
             except CraftError as err:
                 rows[label] = [f"error: {err}"] * len(questions)

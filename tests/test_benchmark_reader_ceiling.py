@@ -9,6 +9,7 @@ from typing import Any
 
 import pytest
 
+from craft_dsl.verify.answers import answers_agree
 from tests.script_module import load_script
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
@@ -45,12 +46,9 @@ def test_the_datasets_own_engine_from_the_true_start_gives_the_datasets_answers(
     bench.main(["--dataset", str(users_dataset), "--engines", "pymunk", "--limit", "1", "--workers", "1",
                 "--json", str(out)])
     (video,) = json.loads(out.read_text())["results"]
-    tests = bench.held_out_questions(users_dataset)
-    truth = tests.truth
+    truth = bench.held_out_questions(users_dataset).truth
     rows = video["rows"]
     assert set(rows) == {"reader", "pymunk from the true start", "pymunk from the reader's start"}
     assert all(len(answers) == len(video["keys"]) for answers in rows.values())
-    from craft_dsl.verify.answers import answers_agree
-
     assert video["keys"] and all(answers_agree(a, truth[k])
                                  for k, a in zip(video["keys"], rows["pymunk from the true start"]))
