@@ -86,11 +86,16 @@ class _Worker:
         child.close()
         self.queued: deque[Task] = deque()
 
-    def feed(self, todo: deque[Task]) -> None:
+    def feed(self, todo: deque[Task]) -> bool:
+        """Send tasks from the front of ``todo`` until this worker holds its share; False (the task left in
+        ``todo``) when the worker has died, which a worker may do at any moment after its last result arrived."""
         while todo and len(self.queued) <= QUEUED_PER_WORKER:
-            task = todo.popleft()
-            self.conn.send(task)
-            self.queued.append(task)
+            try:
+                self.conn.send(todo[0])
+            except OSError:  # BrokenPipeError: its end of the pipe is gone
+                return False
+            self.queued.append(todo.popleft())
+        return True
 
     def stop(self) -> None:
         if self.process.is_alive():
@@ -126,9 +131,13 @@ def run_pool(fn: Callable[..., Any], tasks: Sequence[Task], workers: int, on_res
     ctx = multiprocessing.get_context("spawn")
     pool = _start(ctx, fn, min(workers, len(todo)), name)
     try:
-        for w in pool:
-            w.feed(todo)
-        while any(w.queued for w in pool):
+        while True:
+            for i in range(len(pool)):
+                while not pool[i].feed(todo) and not pool[i].queued:  # died holding nothing: only replace it
+                    pool[i].stop()
+                    pool[i] = _start(ctx, fn, 1, name)[0]
+            if not any(w.queued for w in pool):
+                break
             by_conn = {w.conn: w for w in pool if w.queued}
             for conn in wait(list(by_conn), timeout=1.0):
                 w = by_conn[conn]
@@ -140,15 +149,13 @@ def run_pool(fn: Callable[..., Any], tasks: Sequence[Task], workers: int, on_res
                     w.queued.clear()
                     w.stop()
                     on_failure(lost[0], f"the worker process died (exit code {w.process.exitcode})")
-                    pool[pool.index(w)] = replacement = _start(ctx, fn, 1, name)[0]
-                    replacement.feed(todo)
+                    pool[pool.index(w)] = _start(ctx, fn, 1, name)[0]
                     continue
                 w.queued.popleft()
                 if message[0] == "ok":
                     on_result(message[1], message[2])
                 else:
                     on_failure(message[1], message[2])
-                w.feed(todo)
     finally:
         for w in pool:
             w.stop()

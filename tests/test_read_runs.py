@@ -494,3 +494,30 @@ def test_worker_processes_report_exceptions_and_deaths_and_go_on() -> None:
     run_tasks(_task, [(k, (k,)) for k in range(6)], 2, results.__setitem__, failures.__setitem__)
     assert results == {0: 0, 2: 20, 4: 40, 5: 50}
     assert failures == {1: "ValueError: bad key", 3: "the worker process died (exit code 7)"}
+
+
+def test_a_task_sent_to_a_worker_that_has_just_died_stays_to_do() -> None:
+    # the race behind a flaky failure: a worker may die (here: killed) after its last result arrived and before
+    # the next task is sent to it; the send must not raise, and the task must stay for another worker
+    import multiprocessing
+    from collections import deque
+
+    from craft_dsl.pool import _Worker
+
+    worker = _Worker(multiprocessing.get_context("spawn"), _task, "test worker")
+    worker.process.kill()
+    worker.process.join(timeout=10)
+    todo = deque([(0, (0,)), (2, (2,))])
+    try:
+        assert worker.feed(todo) is False
+    finally:
+        worker.stop()
+    assert list(todo) == [(0, (0,)), (2, (2,))] and not worker.queued
+
+
+def test_every_task_is_run_when_workers_keep_dying_between_tasks() -> None:
+    results: dict[int, int] = {}
+    failures: dict[int, str] = {}
+    run_tasks(_task, [(k, (k,)) for k in (3, 0, 3, 2, 3, 4)], 2, results.__setitem__, failures.__setitem__)
+    assert results == {0: 0, 2: 20, 4: 40}
+    assert failures == {3: "the worker process died (exit code 7)"}
