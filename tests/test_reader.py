@@ -122,6 +122,51 @@ def test_a_large_body_is_measured_at_its_centre(shape: str) -> None:
     assert angle is not None and abs((angle - math.pi + math.pi) % (2 * math.pi) - math.pi) < 0.35
 
 
+def _red_body_window(shape: str, *others: tuple[str, str, str, tuple[float, float]]
+                     ) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
+    """A 48-px window (frame, background, origin) around a large red ``shape`` drawn at rest in scene 3's layout,
+    with ``others`` (shape, colour, size, position) drawn too."""
+    world = sample_world(3, 0)
+    background = static_layer(world)
+    bodies = [make_dynamic(0, shape, "red", "large", (1.237, 30.61))]
+    bodies += [make_dynamic(k + 1, s, c, z, p) for k, (s, c, z, p) in enumerate(others)]
+    sim = simulate(WorldSpec(bodies=tuple(b for b in world.bodies if not b.dynamic) + tuple(bodies)), steps=1)
+    frame = render_frames(sim)[0]
+    x, y = world_to_pixel(*sim.trajectory.positions[1, sim.trajectory.column(0)])
+    y0, x0 = int(y) - 24, int(x) - 24
+    return frame[y0:y0 + 48, x0:x0 + 48].copy(), background[y0:y0 + 48, x0:x0 + 48], (y0, x0)
+
+
+@pytest.mark.parametrize("shape", ["cube", "triangle", "circle"])
+def test_a_band_of_another_colour_along_the_outline_is_the_bodys_own_bleeding(shape: str) -> None:
+    # lossy video shifts a saturated edge's colour: a red body's outline reads brown in places, two pixels wide at
+    # most; that is not another body touching it
+    window, background, origin = _red_body_window(shape)
+    red = COLORS.index("red")
+    clean = measure(window, background, red, origin)
+    mask = lookup(window) == red
+    grown = mask.copy()
+    grown[:, 1:] |= mask[:, :-1]
+    grown[:, 2:] |= mask[:, :-2]
+    band = grown & ~mask
+    band[:, :24] = False  # along the right half of the outline
+    dark_red = np.array([140, 60, 40], dtype=np.uint8)  # reads as brown
+    assert (lookup(dark_red[None, None]) == COLORS.index("brown")).all()
+    bled = window.copy()
+    bled[band] = dark_red
+    m = measure(bled, background, red, origin)
+    assert clean is not None and m is not None and band.sum() >= 12
+    assert m.complete
+    assert clean.area <= m.area <= clean.area + band.sum()  # the band counts (its pixels nearly wholly red)
+
+
+def test_another_body_touching_is_still_another_body() -> None:
+    # a small brown cube resting against the large red cube's right side (half-width 2 m + 1 m)
+    window, background, origin = _red_body_window("cube", ("cube", "brown", "small", (1.237 + 3.05, 29.61)))
+    m = measure(window, background, COLORS.index("red"), origin)
+    assert m is not None and not m.complete
+
+
 # -- detection and perception on rendered (lossless) frames ---------------------------------------------------
 
 

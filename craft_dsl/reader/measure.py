@@ -24,8 +24,11 @@ from .morphology import close_disk, fill_holes, grow, shrink
 CLOSING_RADIUS = 4
 
 
-#: A piece of another body colour this large (pixels) next to the body means another body touches it.
+#: A piece of another body colour this large (pixels) next to the body means another body touches it...
 OTHER_BODY_PIXELS = 12
+#: ...unless it lies within this many pixels of the body's outline: a thin band of another colour along a saturated
+#: body's edge is the video's colour bleeding (4:2:0 chroma and compression shift a red edge to brown), not a body.
+BLEED_WIDTH = 2
 
 
 @dataclass(frozen=True)
@@ -91,8 +94,19 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
     # another body's colour (compression rings of statics reach a pixel or two beyond their drawn rims)
     other = (labels >= 0) & (labels < WHITE) & (labels != color)
     other &= (labels != GRAY) | shrink(clean, 2)
+    ring = grow(filled, BLEED_WIDTH) & ~filled
+    touching_other = ring & other
+    if touching_other.any():  # which pieces of other colours are bodies (see BLEED_WIDTH); the rest is this body's rim
+        pieces, n = ndi.label(other)
+        beyond = np.bincount(pieces[other & ~ring & ~filled], minlength=n + 1) > 0
+        sizes = np.bincount(pieces.ravel(), minlength=n + 1)
+        body = beyond & (sizes >= OTHER_BODY_PIXELS)
+        body[0] = False
+        other_body = body[pieces]
+    else:
+        other_body = other & False
     alpha = interior.astype(np.float32)
-    rim_ok = rim & ~other & ~(eyes & filled)
+    rim_ok = rim & ~other_body & ~(eyes & filled)
     alpha[rim_ok] = np.clip(proj[rim_ok], 0.0, 1.0)
     alpha[rim & filled & eyes] = 1.0
     area = float(alpha.sum())
@@ -115,12 +129,6 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
         ey, ex = np.nonzero(inner_eyes)
         eye_x, eye_y = float(ex.mean() + 0.5 + origin[1]), float(ey.mean() + 0.5 + origin[0])
     border = filled[0].any() or filled[-1].any() or filled[:, 0].any() or filled[:, -1].any()
-    ring = grow(filled, 2) & ~filled
-    cut = False
-    if (ring & other).any():  # another body touches: a piece of another colour of some size (not eye-rim mixes)
-        pieces, n = ndi.label(other)
-        sizes = np.bincount(pieces.ravel())
-        touching = np.unique(pieces[ring & other])
-        cut = bool(np.any(sizes[touching[touching > 0]] >= OTHER_BODY_PIXELS))
+    cut = bool((touching_other & other_body).any())  # another body touches (not eye-rim mixes, not bleeding)
     return Measurement(area, cx + origin[1], cy + origin[0], mxx, mxy, myy, radius, eye_x, eye_y,
                        not border and not cut)
