@@ -105,27 +105,10 @@ def test_static_renderer_matches_the_renderer() -> None:
 # -- measurement -------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("shape", ["cube", "triangle", "circle"])
-def test_a_large_body_is_measured_at_its_centre(shape: str) -> None:
-    world = sample_world(3, 0)
-    background = static_layer(world)
-    body = make_dynamic(0, shape, "red", "large", (1.237, 30.61))
-    scene = WorldSpec(bodies=tuple(b for b in world.bodies if not b.dynamic) + (body,))
-    sim = simulate(scene, steps=1)
-    frame = render_frames(sim)[0]
-    x, y = world_to_pixel(*sim.trajectory.positions[1, sim.trajectory.column(0)])
-    y0, x0 = int(y) - 24, int(x) - 24
-    m = measure(frame[y0:y0 + 48, x0:x0 + 48], background[y0:y0 + 48, x0:x0 + 48], COLORS.index("red"), (y0, x0))
-    assert m is not None and m.complete
-    assert math.hypot(m.x - x, m.y - y) < 0.05
-    angle = m.eye_angle()
-    assert angle is not None and abs((angle - math.pi + math.pi) % (2 * math.pi) - math.pi) < 0.35
-
-
 def _red_body_window(shape: str, *others: tuple[str, str, str, tuple[float, float]]
-                     ) -> tuple[np.ndarray, np.ndarray, tuple[int, int]]:
+                     ) -> tuple[np.ndarray, np.ndarray, tuple[int, int], tuple[float, float]]:
     """A 48-px window (frame, background, origin) around a large red ``shape`` drawn at rest in scene 3's layout,
-    with ``others`` (shape, colour, size, position) drawn too."""
+    with ``others`` (shape, colour, size, position) drawn too; and the red body's centre (pixels)."""
     world = sample_world(3, 0)
     background = static_layer(world)
     bodies = [make_dynamic(0, shape, "red", "large", (1.237, 30.61))]
@@ -134,14 +117,24 @@ def _red_body_window(shape: str, *others: tuple[str, str, str, tuple[float, floa
     frame = render_frames(sim)[0]
     x, y = world_to_pixel(*sim.trajectory.positions[1, sim.trajectory.column(0)])
     y0, x0 = int(y) - 24, int(x) - 24
-    return frame[y0:y0 + 48, x0:x0 + 48].copy(), background[y0:y0 + 48, x0:x0 + 48], (y0, x0)
+    return frame[y0:y0 + 48, x0:x0 + 48].copy(), background[y0:y0 + 48, x0:x0 + 48], (y0, x0), (x, y)
+
+
+@pytest.mark.parametrize("shape", ["cube", "triangle", "circle"])
+def test_a_large_body_is_measured_at_its_centre(shape: str) -> None:
+    window, background, origin, (x, y) = _red_body_window(shape)
+    m = measure(window, background, COLORS.index("red"), origin)
+    assert m is not None and m.complete
+    assert math.hypot(m.x - x, m.y - y) < 0.05
+    angle = m.eye_angle()
+    assert angle is not None and abs((angle - math.pi + math.pi) % (2 * math.pi) - math.pi) < 0.35
 
 
 @pytest.mark.parametrize("shape", ["cube", "triangle", "circle"])
 def test_a_band_of_another_colour_along_the_outline_is_the_bodys_own_bleeding(shape: str) -> None:
     # lossy video shifts a saturated edge's colour: a red body's outline reads brown in places, two pixels wide at
     # most; that is not another body touching it
-    window, background, origin = _red_body_window(shape)
+    window, background, origin, _centre = _red_body_window(shape)
     red = COLORS.index("red")
     clean = measure(window, background, red, origin)
     mask = lookup(window) == red
@@ -162,7 +155,8 @@ def test_a_band_of_another_colour_along_the_outline_is_the_bodys_own_bleeding(sh
 
 def test_another_body_touching_is_still_another_body() -> None:
     # a small brown cube resting against the large red cube's right side (half-width 2 m + 1 m)
-    window, background, origin = _red_body_window("cube", ("cube", "brown", "small", (1.237 + 3.05, 29.61)))
+    window, background, origin, _centre = _red_body_window(
+        "cube", ("cube", "brown", "small", (1.237 + 3.05, 29.61)))
     m = measure(window, background, COLORS.index("red"), origin)
     assert m is not None and not m.complete
 

@@ -94,17 +94,16 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
     # another body's colour (compression rings of statics reach a pixel or two beyond their drawn rims)
     other = (labels >= 0) & (labels < WHITE) & (labels != color)
     other &= (labels != GRAY) | shrink(clean, 2)
-    ring = grow(filled, BLEED_WIDTH) & ~filled
-    touching_other = ring & other
+    near = grow(filled, BLEED_WIDTH)
+    touching_other = near & ~filled & other
+    other_body = np.zeros_like(other)
     if touching_other.any():  # which pieces of other colours are bodies (see BLEED_WIDTH); the rest is this body's rim
         pieces, n = ndi.label(other)
-        beyond = np.bincount(pieces[other & ~ring & ~filled], minlength=n + 1) > 0
+        beyond = np.bincount(pieces[other & ~near], minlength=n + 1) > 0
         sizes = np.bincount(pieces.ravel(), minlength=n + 1)
         body = beyond & (sizes >= OTHER_BODY_PIXELS)
         body[0] = False
         other_body = body[pieces]
-    else:
-        other_body = other & False
     alpha = interior.astype(np.float32)
     rim_ok = rim & ~other_body & ~(eyes & filled)
     alpha[rim_ok] = np.clip(proj[rim_ok], 0.0, 1.0)
