@@ -25,7 +25,7 @@ from craft_dsl.physics.box2d_engine import Box2DEngine
 from craft_dsl.physics.recording import FrameIntervalRecorder as _IntervalRecorder
 from craft_dsl.templates import templates
 from craft_dsl.types import INVALID
-from craft_dsl.world import make_dynamic
+from craft_dsl.world import WorldSpec, make_dynamic
 
 # -- the Box2D engine ----------------------------------------------------------------------------------
 
@@ -236,3 +236,61 @@ def test_pymunk_can_build_circles_as_the_original_128_gons() -> None:
     sim = simulate(world(ball), steps=240, engine=engine)
     assert sim.object(0).end.position[0] > -10.0 + 6.0  # rolled to the right along the ground
     assert simulate(world(ball), steps=240, engine=PymunkEngine()).object(0).end.position != sim.object(0).end.position
+
+
+# -- rolling: the original's 128-gon circles slow down as they roll ---------------------------------------------
+
+
+def _roller(size: str, speed: float, angular: bool = True, height: float = 0.0) -> tuple[WorldSpec, int, float]:
+    """A world with one circle rolling (or only sliding, ``angular`` False) right at ``speed`` on the ground, or
+    flying ``height`` m above it."""
+    from dataclasses import replace
+
+    radius = 1.0 if size == "small" else 2.0
+    body = make_dynamic(0, "circle", "red", size, (-20.0, -4.8 + radius + 0.01 + height), (speed, 0.0))
+    if angular:
+        body = replace(body, angular_velocity=-speed / radius)
+    w = world(body)
+    return w, w.dynamic_uids[0], radius
+
+
+@pytest.mark.parametrize("size", ["small", "large"])
+def test_a_rolling_circle_slows_down_as_the_originals_128_gons_do(size: str) -> None:
+    from craft_dsl.physics.box2d_engine import rolling_deceleration
+
+    w, uid, radius = _roller(size, 2.0)
+    a = rolling_deceleration(radius)
+    assert 0.1 < a < 0.3
+    sim = simulate(w, steps=120, engine="box2d")  # two seconds
+    assert sim.object(uid).end.velocity[0] == pytest.approx(2.0 - 2 * a, abs=0.02)
+    true_circle = simulate(w, steps=120, engine=Box2DEngine(rolling_deceleration=(0.0, 0.0)))
+    assert true_circle.object(uid).end.velocity[0] == pytest.approx(2.0, abs=0.01)
+
+
+def test_a_slowly_rolling_circle_stops_and_sleeps() -> None:
+    w, uid, _ = _roller("small", 0.3)
+    sim = simulate(w, steps=180, engine="box2d")
+    assert not sim.object(uid).end.is_moving() and not sim.raw.awake[-1, sim.traj.column(uid)]
+    assert simulate(w, steps=180, engine=Box2DEngine(rolling_deceleration=(0.0, 0.0))).object(uid).end.is_moving()
+
+
+def test_rolling_loss_leaves_flying_circles_and_polygons_alone() -> None:
+    w, uid, _ = _roller("small", 2.0, height=30.0)  # in the air for the whole second
+    a, b = (simulate(w, steps=60, engine=e) for e in ("box2d", Box2DEngine(rolling_deceleration=(0.0, 0.0))))
+    assert (a.traj.positions == b.traj.positions).all()
+    assert (a.traj.angular_velocities == b.traj.angular_velocities).all()
+    slide = world(make_dynamic(0, "cube", "red", "small", (-20.0, -3.79), (4.0, 0.0)),
+                  make_dynamic(0, "triangle", "blue", "small", (0.0, -3.3), (-3.0, 0.0)))
+    a, b = (simulate(slide, steps=120, engine=e) for e in ("box2d", Box2DEngine(rolling_deceleration=(0.0, 0.0))))
+    assert (a.traj.positions == b.traj.positions).all()
+
+
+def test_a_whole_scene_keeps_its_events_replays_and_counterfactuals_with_rolling_loss() -> None:
+    """Counterfactuals replay the unaffected bodies exactly, rolling circles included."""
+    sim = simulate(3, seed=1, engine="box2d")
+    for uid in sorted(sim.dynamic_ids):
+        cf = sim.counterfactual(uid)
+        for other in cf.dynamic_ids:
+            first = cf.activation.get(other, sim.steps)
+            i, j = sim.traj.column(other), cf.traj.column(other)
+            assert (sim.traj.positions[: first + 1, i] == cf.traj.positions[: first + 1, j]).all()

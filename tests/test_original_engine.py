@@ -289,3 +289,49 @@ def test_generate_with_the_original_engine_and_its_renderer(tmp_path: Path) -> N
         assert main([*args, "--executor", "dask", "--scheduler", cluster.scheduler_address,
                      "--out", str(tmp_path / "dask")]) == 0
     assert _folder_bytes(tmp_path / "dask") == one
+
+
+@needs_binary
+@pytest.mark.parametrize("size", ["small", "large"])
+def test_our_box2d_circles_roll_as_far_as_the_originals_128_gons(size: str) -> None:
+    """The original's polygon circles slow down as they roll; our Box2D adds that loss to its true circles."""
+    from dataclasses import replace
+
+    from craft_dsl.physics.box2d_engine import Box2DEngine
+
+    radius = 1.0 if size == "small" else 2.0
+    ball = replace(make_dynamic(0, "circle", "red", size, (-20.0, -4.8 + radius + 0.01), (2.0, 0.0)),
+                   angular_velocity=-2.0 / radius)
+    w = sample_world(1, 0)
+    keep = [b for b in w.bodies if b.shape in ("wall_l", "wall_r", "ground")]
+    basket = [replace(b, position=(19.0, -1.2)) for b in w.bodies if b.shape == "basket"]
+    rolling = type(w)(tuple(keep + basket + [replace(ball, uid=0)]))
+    speeds = {}
+    for name, engine in (("original", "original"), ("box2d", "box2d"),
+                         ("true circle", Box2DEngine(rolling_deceleration=(0.0, 0.0)))):
+        sim = simulate(rolling, steps=180, engine=engine)  # type: ignore[call-overload]
+        speeds[name] = sim.object(0).end.velocity[0]
+    assert speeds["original"] < 1.7  # three seconds of rolling cost the 128-gon at least 0.3 m/s
+    assert speeds["box2d"] == pytest.approx(speeds["original"], abs=0.15)
+    assert abs(speeds["true circle"] - speeds["original"]) > 0.3
+
+
+@needs_binary
+def test_our_box2d_circles_collide_with_the_ground_as_often_as_the_originals_rolling_128_gons() -> None:
+    """Rolling, the original's polygon circle makes a new ground contact every few steps (each a Collision)."""
+    from dataclasses import replace
+
+    from craft_dsl.physics.box2d_engine import Box2DEngine
+
+    w = sample_world(1, 0)
+    keep = [b for b in w.bodies if b.shape in ("wall_l", "wall_r", "ground")]
+    basket = [replace(b, position=(19.0, -1.2)) for b in w.bodies if b.shape == "basket"]
+    ball = replace(make_dynamic(0, "circle", "red", "small", (-22.0, -3.79), (3.0, 0.0)), angular_velocity=-3.0)
+    rolling = type(w)(tuple(keep + basket + [ball]))
+    counts = {}
+    for name, engine in (("original", "original"), ("box2d", "box2d"), ("one contact", Box2DEngine(flicker=False))):
+        sim = simulate(rolling, steps=240, engine=engine)  # type: ignore[call-overload]
+        counts[name] = sum(1 for e in sim.events if e.type == "Collision" and sim.ground_id in e.objects)
+    assert counts["original"] >= 20
+    assert 0.6 * counts["original"] <= counts["box2d"] <= 1.4 * counts["original"]
+    assert counts["one contact"] <= 2

@@ -9,7 +9,8 @@ constants already match the original's build (linear slop 0.005, polygon skin 0.
 * every fixture: density 50, friction 0.1, restitution 0.2; Box2D mixes them itself (sqrt / max) and drops
   restitution below a 1 m/s approach speed;
 * polygons as ``b2PolygonShape`` (skin 0.01); circles (dynamic circles, static balls) as ``b2CircleShape``
-  (pybox2d caps polygons at 16 vertices, the original used 128-gons); the basket as one open
+  (pybox2d caps polygons at 16 vertices, the original used 128-gons), with the 128-gons' rolling loss added
+  (:data:`ROLLING_DECELERATION`, below); the basket as one open
   ``b2ChainShape`` (its three children are the parts 0-2 of the contact log) plus a sensor polygon on the
   basket's static body (Box2D never pairs two non-dynamic bodies, so the sensor reports dynamic bodies only).
 
@@ -17,6 +18,15 @@ Contact log: a ``b2ContactListener`` records ``BeginContact`` / ``EndContact`` s
 counter (completed steps, as the original's callbacks). A contact ``[b, e)`` that begins and ends within
 one step (a TOI touch) is stored as ``[b, b + 1)`` so it still yields its Collision. The contact
 identity is the (fixture, child) pair, as in the original.
+
+Rolling: the original's "circles" are 128-gons, and Box2D's contact handling (its linear slop and polygon skin,
+near the size of a 128-gon's facets) makes them lose speed as they roll: measured in the original simulator, a
+circle rolling on the flat ground slows by 0.15-0.3 m/s every second at any speed from 0.3 to 12 m/s, both sizes,
+and one rolling at 0.3 m/s stops within 1.5 s, where a true circle rolls on for ever. So after every step a dynamic
+circle that touches anything has its spin reduced towards zero by ``3 a dt / r`` (``a`` =
+:func:`rolling_deceleration` of its radius ``r``; once friction has shared the loss between spin and motion, a
+rolling disc slows by ``a``). ``Box2DEngine(rolling_deceleration=(0.0, 0.0))`` gives true circles. Their contacts
+with statics flicker as the 128-gons' do (:mod:`~craft_dsl.physics.flicker`; ``flicker=False``: one contact).
 
 Replay (see :class:`~craft_dsl.physics.engine.ReplayPlan`): a replayed body is a kinematic body, placed
 exactly on its recorded row at the start of every frame and moved at the recorded mean velocity during
@@ -31,6 +41,7 @@ from __future__ import annotations
 import operator
 import warnings
 from collections.abc import Hashable
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -41,10 +52,25 @@ with warnings.catch_warnings():  # SWIG's builtin types trigger import-time Depr
 
 from ..world import DENSITY, FRICTION, RESTITUTION, BodySpec, Segment, WorldSpec
 from .engine import RawRun, ReplayPlan
+from .flicker import add_flicker
 from .recording import BodyState, ContactRecorder, FrameIntervalRecorder, StateRecorder
 
 #: The basket sensor's category bits in the original (``SENSOR_BASKET``); informative only.
 SENSOR_CATEGORY = 0x0042
+#: How fast a circle rolling on flat ground slows down (m/s every second) as the original's 128-gons do, by radius:
+#: measured 0.22 for the small circles (radius 1 m) and 0.17 for the large ones (2 m), each the mean over launch
+#: speeds of 0.75 to 10 m/s (1.5 s of rolling each; the spread between speeds is about 0.03); in between and beyond,
+#: linear in the radius (at least 0.05).
+ROLLING_DECELERATION = (0.22, 0.17)
+
+
+def rolling_deceleration(radius: float, measured: tuple[float, float] = ROLLING_DECELERATION) -> float:
+    """The deceleration (m/s every second) of a circle of ``radius`` rolling on flat ground (``measured``: the
+    values at radius 1 and 2 m; (0, 0): true circles, which roll on for ever)."""
+    at_1, at_2 = measured
+    if at_1 <= 0.0 and at_2 <= 0.0:
+        return 0.0
+    return max(0.05, at_1 + (at_2 - at_1) * (radius - 1.0))
 
 
 class _Listener(Box2D.b2ContactListener):
@@ -64,11 +90,13 @@ class _Listener(Box2D.b2ContactListener):
         run = self.run
         rec, key = run.route(contact)
         rec.begin(key, run.frame)
+        run.touch(contact, 1)
 
     def EndContact(self, contact: Any) -> None:  # noqa: N802 - Box2D's callback name
         run = self.run
         rec, key = run.route(contact)
         rec.end(key, run.frame)
+        run.touch(contact, -1)
 
 
 # The builtins behind contact.fixtureA / .fixtureB / .childIndexA / .childIndexB and fixture.userData, called
@@ -103,12 +131,16 @@ class Box2DEngine:
         warm_starting: bool = True,
         continuous: bool = True,
         sleeping: bool = True,
+        rolling_deceleration: tuple[float, float] = ROLLING_DECELERATION,
+        flicker: bool = True,
     ) -> None:
         self.velocity_iterations = velocity_iterations
         self.position_iterations = position_iterations
         self.warm_starting = warm_starting
         self.continuous = continuous
         self.sleeping = sleeping
+        self.rolling_deceleration = rolling_deceleration
+        self.flicker = flicker
 
     # -- building a world ------------------------------------------------------------------------
 
@@ -175,6 +207,16 @@ class _Run:
         self.replay = replay
         self.frame = 0
         self.log = ContactRecorder(FrameIntervalRecorder)
+        self.touching: dict[int, int] = {}  # uid -> its touching contacts (sensor overlaps left out)
+
+    def touch(self, contact: Any, change: int) -> None:
+        """Count a contact that starts (+1) or stops (-1) touching for both its bodies (not for a sensor's)."""
+        ua, _, sa = _user_data(_fixture_a(contact))
+        ub, _, sb = _user_data(_fixture_b(contact))
+        if not (sa or sb):
+            touching = self.touching
+            touching[ua] = touching.get(ua, 0) + change
+            touching[ub] = touching.get(ub, 0) + change
 
     def route(self, contact: Any) -> tuple[FrameIntervalRecorder, Hashable]:
         """The recorder and key of a Box2D contact (its fixtures' tags plus the chain children)."""
@@ -208,6 +250,19 @@ class _Run:
                           body._b2Body__SetAngularVelocity,
                           rec.pos[:, i, 0].tolist(), rec.pos[:, i, 1].tolist(), rec.ang[:, i].tolist())
         step, vi, pi = b2w.Step, eng.velocity_iterations, eng.position_iterations
+        # the circles that lose spin as they roll: (uid, spin loss per step, the body's spin getter and setter)
+        rollers: list[tuple[int, float, Any, Any]] = []
+
+        def add_roller(uid: int, body: Any) -> None:
+            radius = world.body(uid).geometry.circle_radius
+            decel = rolling_deceleration(radius, eng.rolling_deceleration) if radius else 0.0
+            if decel > 0.0 and radius:
+                rollers.append((uid, 3.0 * decel * dt / radius,
+                                body._b2Body__GetAngularVelocity, body._b2Body__SetAngularVelocity))
+
+        for i, body in rec.active:
+            add_roller(rec.ids[i], body)
+        touching = self.touching
         find_new_contacts = b2w.contactManager.FindNewContacts
         pending = rec.pending
         next_due = pending[0][0] if pending else -1
@@ -221,6 +276,7 @@ class _Run:
                     _set_state(body, rec.state(i, k), wake=True)
                     rec.activate(uid, body, k)
                     tracks.append(_Track(i, k + 1, body))
+                    add_roller(uid, body)
                 find_new_contacts()  # so this step's Collide sees them again (and continues the contacts)
                 next_due = pending[0][0] if pending else -1
             for i, _ in rec.kinematic:  # on its row, at the mean velocity that reaches the next one
@@ -230,6 +286,15 @@ class _Run:
                 set_velocity(((xs[k + 1] - x0) * fps, (ys[k + 1] - y0) * fps))
                 set_angular_velocity((angs[k + 1] - a0) * fps)
             step(dt, vi, pi)
+            for uid, loss, get_spin, set_spin in rollers:
+                if touching.get(uid):
+                    spin = get_spin()
+                    if spin > loss:
+                        set_spin(spin - loss)
+                    elif spin < -loss:
+                        set_spin(spin + loss)
+                    elif spin:
+                        set_spin(0.0)
             for t in tracks:
                 if t.awake():
                     p, v = t.p, t.v
@@ -252,7 +317,12 @@ class _Run:
                 rec.vel[r0:, i] = a[:, 3:5]
                 rec.angv[r0:, i] = a[:, 5]
                 rec.awake[r0:, i] = a[:, 6] != 0.0
-        return rec.result(self.log.log(steps))
+        raw = rec.result(self.log.log(steps))
+        if eng.flicker:
+            circles = [b.uid for b in world.bodies if b.dynamic and b.geometry.circle_radius]
+            statics = [b.uid for b in world.bodies if not b.dynamic]
+            raw = replace(raw, log=add_flicker(raw.log, raw.trajectory, circles, statics))
+        return raw
 
 
 class _Track:
