@@ -19,11 +19,11 @@ counter (completed steps, as the original's callbacks). A contact ``[b, e)`` tha
 one step (a TOI touch) is stored as ``[b, b + 1)`` so it still yields its Collision. The contact
 identity is the (fixture, child) pair, as in the original.
 
-Rolling: the original's "circles" are 128-gons, and Box2D's contact handling (its linear slop and polygon skin,
-near the size of a 128-gon's facets) makes them lose speed as they roll: measured in the original simulator, a
-circle rolling on the flat ground slows by 0.15-0.3 m/s every second at any speed from 0.3 to 12 m/s, both sizes,
-and one rolling at 0.3 m/s stops within 1.5 s, where a true circle rolls on for ever. So after every step a dynamic
-circle that touches anything has its spin reduced towards zero by ``3 a dt / r`` (``a`` =
+Rolling: the original's "circles" are 128-gons, and they lose speed as they roll, far more than an ideal polygon's
+vertex impacts would take (where in Box2D's contact handling it comes from was not traced). Measured in the original
+simulator, a circle rolling on the flat ground slows by 0.15-0.3 m/s every second at any speed from 0.75 to 10 m/s,
+both sizes, and one rolling at 0.3 m/s stops within 1.5 s, where a true circle rolls on for ever. So after every
+step a dynamic circle that touches anything has its spin reduced towards zero by ``3 a dt / r`` (``a`` =
 :func:`rolling_deceleration` of its radius ``r``; once friction has shared the loss between spin and motion, a
 rolling disc slows by ``a``). ``Box2DEngine(rolling_deceleration=(0.0, 0.0))`` gives true circles. Their contacts
 with statics flicker as the 128-gons' do (:mod:`~craft_dsl.physics.flicker`; ``flicker=False``: one contact).
