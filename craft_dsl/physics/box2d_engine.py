@@ -42,7 +42,7 @@ import operator
 import warnings
 from collections.abc import Hashable
 from dataclasses import replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -51,7 +51,7 @@ with warnings.catch_warnings():  # SWIG's builtin types trigger import-time Depr
     import Box2D
 
 from ..world import DENSITY, FRICTION, RESTITUTION, BodySpec, Segment, WorldSpec
-from .engine import RawRun, ReplayPlan
+from .engine import PairKey, RawRun, ReplayPlan
 from .flicker import add_flicker
 from .recording import BodyState, ContactRecorder, FrameIntervalRecorder, StateRecorder
 
@@ -90,13 +90,13 @@ class _Listener(Box2D.b2ContactListener):
         run = self.run
         rec, key = run.route(contact)
         rec.begin(key, run.frame)
-        run.touch(contact, 1)
+        run.touch(rec, key, 1)
 
     def EndContact(self, contact: Any) -> None:  # noqa: N802 - Box2D's callback name
         run = self.run
         rec, key = run.route(contact)
         rec.end(key, run.frame)
-        run.touch(contact, -1)
+        run.touch(rec, key, -1)
 
 
 # The builtins behind contact.fixtureA / .fixtureB / .childIndexA / .childIndexB and fixture.userData, called
@@ -209,14 +209,14 @@ class _Run:
         self.log = ContactRecorder(FrameIntervalRecorder)
         self.touching: dict[int, int] = {}  # uid -> its touching contacts (sensor overlaps left out)
 
-    def touch(self, contact: Any, change: int) -> None:
-        """Count a contact that starts (+1) or stops (-1) touching for both its bodies (not for a sensor's)."""
-        ua, _, sa = _user_data(_fixture_a(contact))
-        ub, _, sb = _user_data(_fixture_b(contact))
-        if not (sa or sb):
+    def touch(self, rec: FrameIntervalRecorder, key: Hashable, change: int) -> None:
+        """Count a contact that starts (+1) or stops (-1) touching for both its bodies, from the recorder and key
+        :meth:`route` gave (a sensor overlap is not a touch)."""
+        if rec is self.log.contacts:
+            uid_a, _, uid_b, _ = cast(PairKey, key)
             touching = self.touching
-            touching[ua] = touching.get(ua, 0) + change
-            touching[ub] = touching.get(ub, 0) + change
+            touching[uid_a] = touching.get(uid_a, 0) + change
+            touching[uid_b] = touching.get(uid_b, 0) + change
 
     def route(self, contact: Any) -> tuple[FrameIntervalRecorder, Hashable]:
         """The recorder and key of a Box2D contact (its fixtures' tags plus the chain children)."""
@@ -255,8 +255,10 @@ class _Run:
 
         def add_roller(uid: int, body: Any) -> None:
             radius = world.body(uid).geometry.circle_radius
-            decel = rolling_deceleration(radius, eng.rolling_deceleration) if radius else 0.0
-            if decel > 0.0 and radius:
+            if not radius:
+                return
+            decel = rolling_deceleration(radius, eng.rolling_deceleration)
+            if decel > 0.0:
                 rollers.append((uid, 3.0 * decel * dt / radius,
                                 body._b2Body__GetAngularVelocity, body._b2Body__SetAngularVelocity))
 

@@ -38,7 +38,7 @@ def _split(interval: Interval, speeds: np.ndarray) -> list[Interval]:
     travelled = 0.0
     step = start
     while step < end - 1:
-        speed = float(speeds[step + 1]) if step + 1 < len(speeds) else 0.0
+        speed = float(speeds[step + 1])  # step + 1 < end: a row of the run
         if speed < MIN_SPEED:
             travelled = 0.0
         else:
