@@ -192,6 +192,24 @@ def count_per_color(blobs: Sequence[Blob], frames: int) -> dict[int, int]:
     return out
 
 
+#: A blob this much smaller than a blob of its colour near it (see :data:`PIECE_DISTANCE`) is a piece of that body.
+PIECE_AREA_SHARE = 0.35
+
+
+def _pieces(candidates: Sequence[Blob]) -> set[int]:
+    """Indexes of the blobs that are pieces of a larger blob of one frame and colour: smaller than
+    :data:`PIECE_AREA_SHARE` of it and nearer than :data:`PIECE_DISTANCE` times the square root of their summed
+    area (a lossy video cuts a large triangle along its eyes)."""
+    out = set()
+    for j, b in enumerate(candidates):
+        for k, c in enumerate(candidates):
+            if (k != j and b.area < PIECE_AREA_SHARE * c.area
+                    and math.hypot(b.x - c.x, b.y - c.y) < PIECE_DISTANCE * math.sqrt(b.area + c.area)):
+                out.add(j)
+                break
+    return out
+
+
 def _assign(previous: list[tuple[float, float] | None], areas: list[float | None], candidates: list[Blob]
             ) -> list[Blob | None]:
     """Give each body (by its last position and area) one of the frame's blobs, or none."""
@@ -202,10 +220,18 @@ def _assign(previous: list[tuple[float, float] | None], areas: list[float | None
     if n == 1:
         out[0] = max(candidates, key=lambda b: b.area)
         return out
+    if len(candidates) > n and any(p is None for p in previous):
+        # more blobs than bodies, and a body with no position yet to be near: the extra blobs are pieces (a lossy
+        # video cuts a body at the frame's edge or along its eyes), so the smallest are not bodies
+        keep = sorted(range(len(candidates)), key=lambda j: -candidates[j].area)[:n]
+        candidates = [candidates[j] for j in sorted(keep)]
+    pieces = _pieces(candidates) if any(p is None for p in previous) else set()
     pairs = []
     for i in range(n):
         for j, b in enumerate(candidates):
             p = previous[i]
+            if p is None and j in pieces:
+                continue  # a body first seen is not a piece of another
             d = math.hypot(b.x - p[0], b.y - p[1]) if p is not None else 50.0
             a = areas[i]
             ratio = abs(math.log(b.area / a)) if a else 0.0
@@ -586,12 +612,14 @@ def verify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray,
     probability is weighted by exp(-residual^2 / (2 * RESIDUAL_SCALE^2)) relative to the best. ``sparse``: the
     frames are further apart than a step (see :data:`SPARSE_SHAPE_QUANTILE`)."""
     ranked = sorted(obj.shape_size.items(), key=lambda kv: -kv[1])
-    # the three shapes of the likeliest size (the features tell sizes apart far better than small shapes); a large
-    # body's features decide alone unless a second reading is possible
-    size = ranked[0][0][1]
+    # the three shapes of the likeliest size (the features tell sizes apart far better than small shapes), and the
+    # likeliest shape at the other size: a lossy video cuts a large triangle's tip, and its features then read small,
+    # but drawn small it leaves most of itself in the residual. A large body's features decide alone unless a second
+    # reading is possible.
+    (shape_0, size), _p = ranked[0]
     if size == "large" and ranked[1][1] < 1e-4:
         return
-    candidates = [(shape, size) for shape in SHAPES]
+    candidates = [(shape, size) for shape in SHAPES] + [(shape_0, "large" if size == "small" else "small")]
     pick = (SPARSE_SHAPE_SAMPLES, SPARSE_SHAPE_QUANTILE) if sparse else (8, 0.5)
     if sparse:  # measured frames spread over the run to choose from
         seen = [k for k in obj.seen() if not obj.blobs[k].touches_edge]  # type: ignore[union-attr]
