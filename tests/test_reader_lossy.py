@@ -1,5 +1,6 @@
 """What a lossy re-encoding does to bodies, and how the reader copes: a body cut into pieces at its first sighting
-is tracked as one body, and a large triangle whose cut tip makes its features read small is read large."""
+is tracked as one body, a speck of a body's colour elsewhere does not make that body's blob a pair of touching
+bodies, and a large triangle whose cut tip makes its features read small is read large."""
 
 from __future__ import annotations
 
@@ -69,3 +70,27 @@ def test_a_large_triangle_whose_features_read_small_is_read_large_by_its_drawing
     verify_shape(obj, video, background)
     assert obj.best() == ("triangle", "large")
     assert obj.shape_size[("triangle", "large")] > 0.99
+
+
+def test_a_speck_counted_as_a_body_does_not_make_the_other_body_a_pair() -> None:
+    # an MPEG-4 copy shows a 20-px speck of brown for a few frames, enough to count two brown bodies; the brown
+    # body's own blob (about 208 px) is not "both bodies together", so its track keeps it in every frame
+    frames = 40
+    found = [_blob(k, 214.0 - k, 169.0, 208.0) for k in range(frames)]
+    found += [_blob(k, 38.0, 206.0, 20.0) for k in range(8)]
+    tracks = track(found, frames, counts={1: 2})
+    body = max(tracks, key=lambda o: len(o.seen()))
+    assert body.seen() == list(range(frames))
+    assert all(b is not None and b.area == 208.0 for b in body.blobs)
+
+
+def test_two_bodies_touching_make_one_blob_that_neither_track_takes() -> None:
+    frames = 30
+    found = []
+    for k in range(frames):
+        if 10 <= k < 20:
+            found.append(_blob(k, 100.0, 100.0, 300.0))  # the two together
+        else:
+            found += [_blob(k, 90.0, 100.0, 150.0), _blob(k, 110.0, 100.0, 150.0)]
+    for obj in track(found, frames, counts={1: 2}):
+        assert obj.seen() == [*range(10), *range(20, frames)]

@@ -239,12 +239,17 @@ def _assign(previous: list[tuple[float, float] | None], areas: list[float | None
     pairs.sort()
     used_i: set[int] = set()
     used_j: set[int] = set()
-    total = sum(a for a in areas if a)
+    known = [a for a in areas if a]
+    total = sum(known)
+    # a blob of the bodies together must also be larger than the largest of them by a good part of the smallest (a
+    # speck of the colour that a lossy video shows elsewhere for a few frames, counted as a body, does not make the
+    # other body's own blob a pair)
+    together = max(0.8 * total, max(known) + 0.5 * min(known)) if known else 0.0
     for _cost, i, j in pairs:
         if i in used_i or j in used_j:
             continue
         b = candidates[j]
-        if total and len([a for a in areas if a]) == n and b.area > 0.8 * total and len(candidates) < n:
+        if total and len(known) == n and b.area > together and len(candidates) < n:
             continue  # one blob as large as all the colour's bodies together: they touch
         out[i] = b
         used_i.add(i)
