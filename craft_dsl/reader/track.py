@@ -151,6 +151,12 @@ class TrackedObject:
         return [k for k, b in enumerate(self.blobs) if b is not None]
 
 
+def _near(a: Blob, b: Blob) -> bool:
+    """Whether two blobs of one colour and frame are near enough to be pieces of one body (see
+    :data:`PIECE_DISTANCE`)."""
+    return math.hypot(a.x - b.x, a.y - b.y) < PIECE_DISTANCE * math.sqrt(a.area + b.area)
+
+
 def _bodies_in_frame(pieces: Sequence[Blob]) -> int:
     """How many bodies one frame's substantial blobs of one colour show: blobs nearer each other than
     :data:`PIECE_DISTANCE` times the square root of their summed area are pieces of one body (the eyes cut a body's
@@ -167,8 +173,7 @@ def _bodies_in_frame(pieces: Sequence[Blob]) -> int:
 
     for i, a in enumerate(pieces):
         for j in range(i + 1, len(pieces)):
-            b = pieces[j]
-            if math.hypot(a.x - b.x, a.y - b.y) < PIECE_DISTANCE * math.sqrt(a.area + b.area):
+            if _near(a, pieces[j]):
                 group[root(j)] = root(i)
     return len({root(i) for i in range(len(pieces))})
 
@@ -203,8 +208,7 @@ def _pieces(candidates: Sequence[Blob]) -> set[int]:
     out = set()
     for j, b in enumerate(candidates):
         for k, c in enumerate(candidates):
-            if (k != j and b.area < PIECE_AREA_SHARE * c.area
-                    and math.hypot(b.x - c.x, b.y - c.y) < PIECE_DISTANCE * math.sqrt(b.area + c.area)):
+            if k != j and b.area < PIECE_AREA_SHARE * c.area and _near(b, c):
                 out.add(j)
                 break
     return out
@@ -220,12 +224,13 @@ def _assign(previous: list[tuple[float, float] | None], areas: list[float | None
     if n == 1:
         out[0] = max(candidates, key=lambda b: b.area)
         return out
-    if len(candidates) > n and any(p is None for p in previous):
-        # more blobs than bodies, and a body with no position yet to be near: the extra blobs are pieces (a lossy
-        # video cuts a body at the frame's edge or along its eyes), so the smallest are not bodies
+    unplaced = any(p is None for p in previous)  # a body with no position yet to be near
+    if unplaced and len(candidates) > n:
+        # more blobs than bodies: the extra blobs are pieces (a lossy video cuts a body at the frame's edge or along
+        # its eyes), so the smallest are not bodies
         keep = sorted(range(len(candidates)), key=lambda j: -candidates[j].area)[:n]
         candidates = [candidates[j] for j in sorted(keep)]
-    pieces = _pieces(candidates) if any(p is None for p in previous) else set()
+    pieces = _pieces(candidates) if unplaced else set()
     pairs = []
     for i in range(n):
         for j, b in enumerate(candidates):
