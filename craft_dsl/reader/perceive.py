@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,7 +29,6 @@ from ..perception.schema import PerceivedScene
 from ..render.raster import DEFAULT_SIZE, static_layer
 from ..world import WorldSpec
 from .detect import blobs, grid_labels, grid_rims
-from .ending import seen_moving_at_end
 from .layout import StaticFit, fit_layout
 from .layout_model import layout_model
 from .reconstruct import Reconstruction, fit_frames, reader_engines, reconstruct_best, start_frames
@@ -123,19 +122,15 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     rec = reconstruct_best(model, layout.values, objects, len(frames), steps=int(rows[-1]), engines=engines,
                            measure=measure, rows=rows)
     times["reconstruct"] = time.perf_counter() - t
-    at_end = {slot: seen_moving_at_end(obj.blobs, rows) for obj, slot in zip(objects, rec.slots) if slot >= 0}
-    perceived = to_perceived(rec, objects, layout, rate, at_end)
+    perceived = to_perceived(rec, objects, layout, rate)
     return Perception(perceived, layout, objects, rec, times, rate, rows)
 
 
 def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: StaticFit,
-                 rate: FrameRate | None = None, moving_at_end: Mapping[int, bool | None] | None = None
-                 ) -> PerceivedScene:
+                 rate: FrameRate | None = None) -> PerceivedScene:
     """The PerceivedScene of a reconstruction: the exported run (60 fps), with the attribute probabilities the
     detector gives (the colour is read directly; shape and size from :func:`~craft_dsl.reader.track.classify_shape`);
-    the rate the video was read at goes to ``meta`` where it is not 60 fps. ``moving_at_end`` (by slot): whether the
-    frames show a body moving when the video ends (:func:`~craft_dsl.reader.ending.seen_moving_at_end`); where they
-    do, that is the object's ``moving_end`` instead of the run's last velocity."""
+    the rate the video was read at goes to ``meta`` where it is not 60 fps."""
     scene = export_perceived(rec.simulation)
     n = len(rec.attributes)
     probs: dict[int, dict[str, Any]] = {}
@@ -153,9 +148,6 @@ def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: Stat
         p_shape = _with_mode(p_shape, shape)
         p_size = _with_mode(p_size, size)
         probs[uid] = {"shape": p_shape, "size": p_size}
-        seen = (moving_at_end or {}).get(slot)
-        if seen is not None:
-            probs[uid]["moving_end"] = 1.0 if seen else 0.0
     objs = []
     for o in scene.objects:
         extra = probs.get(o.id)
