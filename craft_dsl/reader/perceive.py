@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -29,6 +29,7 @@ from ..perception.schema import PerceivedScene
 from ..render.raster import DEFAULT_SIZE, static_layer
 from ..world import WorldSpec
 from .detect import blobs, grid_labels, grid_rims
+from .ending import run_end, scene_moving_at_end
 from .layout import StaticFit, fit_layout
 from .layout_model import layout_model
 from .reconstruct import Reconstruction, fit_frames, reader_engines, reconstruct_best, start_frames
@@ -122,15 +123,21 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     rec = reconstruct_best(model, layout.values, objects, len(frames), steps=int(rows[-1]), engines=engines,
                            measure=measure, rows=rows)
     times["reconstruct"] = time.perf_counter() - t
-    perceived = to_perceived(rec, objects, layout, rate)
+    n_slots, trajectory = len(rec.attributes), rec.simulation.trajectory
+    at_end = {} if trajectory is None else scene_moving_at_end(
+        {slot: obj.blobs for obj, slot in zip(objects, rec.slots) if slot >= 0},
+        {s: run_end(trajectory, n_slots - 1 - s) for s in rec.slots if s >= 0}, n_slots, rows)
+    perceived = to_perceived(rec, objects, layout, rate, at_end)
     return Perception(perceived, layout, objects, rec, times, rate, rows)
 
 
 def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: StaticFit,
-                 rate: FrameRate | None = None) -> PerceivedScene:
+                 rate: FrameRate | None = None, moving_at_end: Mapping[int, bool] | None = None) -> PerceivedScene:
     """The PerceivedScene of a reconstruction: the exported run (60 fps), with the attribute probabilities the
     detector gives (the colour is read directly; shape and size from :func:`~craft_dsl.reader.track.classify_shape`);
-    the rate the video was read at goes to ``meta`` where it is not 60 fps."""
+    the rate the video was read at goes to ``meta`` where it is not 60 fps. ``moving_at_end`` (by slot): whether the
+    frames show each body moving when the video ends (:func:`~craft_dsl.reader.ending.scene_moving_at_end`), the
+    objects' ``moving_end`` instead of the run's last velocities."""
     scene = export_perceived(rec.simulation)
     n = len(rec.attributes)
     probs: dict[int, dict[str, Any]] = {}
@@ -148,6 +155,8 @@ def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: Stat
         p_shape = _with_mode(p_shape, shape)
         p_size = _with_mode(p_size, size)
         probs[uid] = {"shape": p_shape, "size": p_size}
+        if moving_at_end and slot in moving_at_end:
+            probs[uid]["moving_end"] = 1.0 if moving_at_end[slot] else 0.0
     objs = []
     for o in scene.objects:
         extra = probs.get(o.id)

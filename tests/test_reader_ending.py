@@ -1,0 +1,156 @@
+"""Whether the frames show a body moving when the video ends (craft_dsl.reader.ending)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from craft_dsl.physics import simulate
+from craft_dsl.reader.detect import Blob
+from craft_dsl.reader.ending import (
+    MOVE_PX,
+    MOVING_STEPS,
+    RESTING_STEPS,
+    VISIBLE_SPEED,
+    RunEnd,
+    run_end,
+    scene_moving_at_end,
+    seen_moving_at_end,
+)
+from craft_dsl.reader.perceive import perceive_frames
+from craft_dsl.render import frames as render_frames
+from craft_dsl.simulation import Trajectory
+
+FRAMES = 600
+ROWS = np.arange(1, FRAMES + 1)  # 60 fps: frame k shows step k + 1
+
+
+def _blobs(xs: np.ndarray, ys: np.ndarray, seen: np.ndarray | None = None, edge_from: int = FRAMES
+           ) -> list[Blob | None]:
+    return [Blob(k, 0, 40.0, float(x), float(y), k >= edge_from) if seen is None or seen[k] else None
+            for k, (x, y) in enumerate(zip(xs, ys))]
+
+
+def _stopping_at(stop: int, speed: float = 0.5) -> list[Blob | None]:
+    """A body moving right at ``speed`` pixels a frame until frame ``stop``, then still."""
+    k = np.arange(FRAMES)
+    return _blobs(100.0 + speed * np.minimum(k, stop), np.full(FRAMES, 80.0))
+
+
+def test_a_body_moving_in_the_last_frames_is_moving() -> None:
+    assert seen_moving_at_end(_stopping_at(FRAMES), ROWS) is True
+    assert seen_moving_at_end(_stopping_at(FRAMES - MOVING_STEPS + 2), ROWS) is True
+
+
+def test_a_body_still_for_the_last_second_is_at_rest() -> None:
+    assert seen_moving_at_end(_stopping_at(FRAMES - 60), ROWS) is False
+    assert seen_moving_at_end(_blobs(np.full(FRAMES, 10.0), np.full(FRAMES, 20.0)), ROWS) is False
+
+
+def test_a_body_that_stopped_less_than_the_resting_time_ago_is_left_to_the_run() -> None:
+    """Sleeping takes 30 steps of rest: a body still for 25 frames may be awake or asleep."""
+    assert seen_moving_at_end(_stopping_at(FRAMES - 25), ROWS) is None
+
+
+def test_the_compression_flicker_of_a_still_body_is_not_motion() -> None:
+    """Edges that move by 0.6 px in two frames of every four (an MPEG group) average out."""
+    k = np.arange(FRAMES)
+    xs = 50.0 + np.where(k % 4 < 2, 0.6, 0.0)
+    assert seen_moving_at_end(_blobs(xs, np.full(FRAMES, 30.0)), ROWS) is False
+
+
+def test_a_passing_jump_of_the_centroid_is_not_motion() -> None:
+    """The centroid off by 0.8 px for a few frames (an artefact) and back: not moving, and not seen at rest."""
+    k = np.arange(FRAMES)
+    xs = 50.0 + np.where((k >= FRAMES - 16) & (k < FRAMES - 10), 0.8, 0.0)
+    assert seen_moving_at_end(_blobs(xs, np.full(FRAMES, 30.0)), ROWS) is None
+
+
+def test_slow_motion_just_over_the_threshold_counts() -> None:
+    k = np.arange(FRAMES)
+    per_frame = 2.5 * MOVE_PX / 18  # the averaged positions 10 steps apart differ by more than MOVE_PX
+    xs = 50.0 + per_frame * k
+    assert seen_moving_at_end(_blobs(xs, np.full(FRAMES, 30.0)), ROWS) is True
+
+
+def test_a_body_not_seen_at_the_end_or_mostly_hidden_is_left_to_the_run() -> None:
+    still = np.full(FRAMES, 10.0)
+    hidden_last = np.ones(FRAMES, dtype=bool)
+    hidden_last[-1] = False
+    assert seen_moving_at_end(_blobs(still, still, hidden_last), ROWS) is None
+    mostly_hidden = np.ones(FRAMES, dtype=bool)
+    mostly_hidden[FRAMES - RESTING_STEPS:-1] = np.arange(RESTING_STEPS - 1) % 3 == 0
+    assert seen_moving_at_end(_blobs(still, still, mostly_hidden), ROWS) is None
+    assert seen_moving_at_end([], np.zeros(0, dtype=np.int64)) is None
+    assert seen_moving_at_end(_blobs(still, still)[:-1], ROWS) is None  # blobs and rows disagree
+
+
+def test_a_blob_cut_off_by_the_border_is_not_looked_at() -> None:
+    """A body entering the frame's edge: its blob's centroid moves with the cut."""
+    k = np.arange(FRAMES)
+    xs = 250.0 + np.where(k >= FRAMES - 5, 1.5, 0.0)
+    assert seen_moving_at_end(_blobs(xs, np.full(FRAMES, 30.0), edge_from=FRAMES - 5), ROWS) is None
+    assert seen_moving_at_end(_blobs(xs, np.full(FRAMES, 30.0)), ROWS) is True
+
+
+def test_lower_frame_rates_are_read_in_steps() -> None:
+    """At 10 fps (a frame every 6 steps) the windows are the same steps."""
+    rows = np.arange(6, FRAMES + 1, 6)
+    k = np.arange(rows.size)
+    moving = _blobs(100.0 + 3.0 * k, np.full(rows.size, 80.0))
+    still = _blobs(np.full(rows.size, 100.0), np.full(rows.size, 80.0))
+    assert seen_moving_at_end(moving, rows) is True
+    assert seen_moving_at_end(still, rows) is False
+
+
+MOVING = _stopping_at(FRAMES)  # seen moving at the end
+STILL = _stopping_at(FRAMES - 60)  # seen still for the last second
+STOPPED_LONG_AGO = RunEnd(moving=False, speed=0.0, last_moving=300)
+FLYING = RunEnd(moving=True, speed=2.0, last_moving=FRAMES)
+
+
+def test_a_scene_is_read_from_the_frames_only_where_they_decide_every_body() -> None:
+    runs = {0: STOPPED_LONG_AGO, 1: FLYING}
+    assert scene_moving_at_end({0: MOVING, 1: STILL}, runs, 2, ROWS) == {0: True, 1: False}
+    undecided = _stopping_at(FRAMES - 25)  # stopped 25 frames ago: the frames do not say
+    assert scene_moving_at_end({0: MOVING, 1: undecided}, runs, 2, ROWS) == {}
+    assert scene_moving_at_end({0: MOVING}, runs, 2, ROWS) == {}  # a slot without a tracked body
+    assert scene_moving_at_end({0: MOVING, 1: STILL}, {0: STOPPED_LONG_AGO}, 2, ROWS) == {}
+
+
+def test_the_frames_overrule_the_run_only_where_both_cannot_be_right() -> None:
+    """A run creeping too slowly to show, or stopping the body in the last steps, is kept."""
+    creeping = RunEnd(moving=True, speed=0.5 * VISIBLE_SPEED, last_moving=FRAMES)
+    stopping_late = RunEnd(moving=False, speed=0.0, last_moving=FRAMES - MOVING_STEPS // 2)
+    assert scene_moving_at_end({0: STILL, 1: MOVING}, {0: creeping, 1: stopping_late}, 2, ROWS) == {0: True, 1: False}
+
+
+def test_how_a_run_ends_for_a_body() -> None:
+    steps = 10
+    velocities = np.zeros((steps + 1, 2, 2))
+    velocities[:6, 0] = (0.5, 0.0)  # body 7 stops after step 5
+    velocities[:, 1] = (0.0, -0.3)  # body 9 falls to the end
+    traj = Trajectory((7, 9), np.zeros((steps + 1, 2, 2)), np.zeros((steps + 1, 2)), velocities,
+                      np.zeros((steps + 1, 2)))
+    assert run_end(traj, 7) == RunEnd(False, 0.0, 5)
+    falling = run_end(traj, 9)
+    assert falling.moving and falling.last_moving == steps and falling.speed == pytest.approx(0.3)
+
+
+@pytest.fixture(scope="module")
+def rendered_end() -> tuple[object, np.ndarray]:
+    sim = simulate(3, seed=6, steps=360)  # two bodies moving at the end, one still
+    return sim, render_frames(sim)
+
+
+def test_the_perceived_scene_says_what_the_frames_show(rendered_end: tuple[object, np.ndarray]) -> None:
+    """The frames decide every body of this video: each object's ``moving_end`` is theirs, and the truth."""
+    sim, video = rendered_end
+    p = perceive_frames(video)
+    world = sim.world  # type: ignore[attr-defined]
+    truth_uid = {(b.shape, b.color, b.size): b.uid for b in world.bodies if b.dynamic}
+    ours = {b.uid: (b.shape, b.color, b.size) for b in p.reconstruction.simulation.world_spec.bodies if b.dynamic}
+    flags = {obj.id: obj.moving_end for obj in p.scene.objects if obj.id in ours}
+    assert len(flags) == len(truth_uid) and set(flags.values()) == {0.0, 1.0}
+    for uid, flag in flags.items():
+        assert flag == (1.0 if truth_uid[ours[uid]] in sim.moving(-1) else 0.0)  # type: ignore[attr-defined]
