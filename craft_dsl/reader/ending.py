@@ -97,7 +97,6 @@ def seen_moving_at_end(blobs: Sequence[Blob | None], rows: np.ndarray) -> bool |
     return False if float(away[window].max()) <= threshold else None
 
 
-
 @dataclass(frozen=True)
 class RunEnd:
     """How the reconstructed run ends for one body."""
