@@ -32,7 +32,7 @@ from .detect import blobs, grid_labels, grid_rims
 from .ending import run_end, scene_moving_at_end
 from .layout import StaticFit, fit_layout
 from .layout_model import layout_model
-from .reconstruct import Reconstruction, fit_frames, reader_engines, reconstruct_best, start_frames
+from .reconstruct import Reconstruction, fit_frames, reader_engines, reconstruct_best, slot_uid, start_frames
 from .track import (
     TrackedObject,
     classify_shape,
@@ -126,7 +126,7 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     n_slots, trajectory = len(rec.attributes), rec.simulation.trajectory
     at_end = {} if trajectory is None else scene_moving_at_end(
         {slot: obj.blobs for obj, slot in zip(objects, rec.slots) if slot >= 0},
-        {s: run_end(trajectory, n_slots - 1 - s) for s in rec.slots if s >= 0}, n_slots, rows)
+        {s: run_end(trajectory, slot_uid(s, n_slots)) for s in rec.slots if s >= 0}, n_slots, rows)
     perceived = to_perceived(rec, objects, layout, rate, at_end)
     return Perception(perceived, layout, objects, rec, times, rate, rows)
 
@@ -144,7 +144,7 @@ def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: Stat
     for obj, slot in zip(objects, rec.slots):
         if slot < 0:
             continue
-        uid = n - 1 - slot
+        uid = slot_uid(slot, n)
         shape, _color, size = rec.attributes[slot]
         p_shape: dict[str, float] = {}
         p_size: dict[str, float] = {}

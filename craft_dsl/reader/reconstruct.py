@@ -249,6 +249,12 @@ def slot_attributes(model: LayoutModel, objects: Sequence[TrackedObject], slots:
     return [t for t in out if t is not None]
 
 
+def slot_uid(slot: int, slots: int) -> int:
+    """The object id a layout's dynamic slot gets in the reconstructed world of ``slots`` slots (the last slot is
+    uid 0)."""
+    return slots - 1 - slot
+
+
 class StartFit:
     """Least-squares fit of the start draws against the measured centroids."""
 
@@ -264,7 +270,7 @@ class StartFit:
         self.engine = engine
         self.size = size
         n = len(model.layout.dynamic)
-        self.uids = [n - 1 - s for s in range(n)]  # slot s gets uid n-1-s (last slot, uid 0)
+        self.uids = [slot_uid(s, n) for s in range(n)]
         self._static_bounds = model.bounds(self.static_values)
         # every draw the statics do not read: the slots' own, and variables only the slots read (a launch speed)
         free = [d for d in model.draws if d.path not in model.static_paths]
