@@ -200,14 +200,20 @@ def derive_log(world: WorldSpec, states: RowStates, tolerance: float = CONTACT_T
     contacts: dict[PairKey, list[int]] = {}
     sensors: dict[SensorKey, list[int]] = {}
     previous: tuple[set[PairKey], set[SensorKey]] | None = None
+    at_row: tuple[int, set[PairKey]] | None = None  # the pairs touching at the last row placed: the next frame's start
     for k in range(steps):
         if previous is not None and _same_samples(states, k, dyn_cols):
             touching, inside = previous
         else:
-            touching = set()
-            for pos, ang in (_row(states, k), _row(states, k + 1)):
-                probe.place(pos, ang, columns)
-                touching |= probe.touching()
+            if at_row is not None and at_row[0] == k:
+                touching = set(at_row[1])
+            else:
+                probe.place(*_row(states, k), columns)
+                touching = probe.touching()
+            probe.place(*_row(states, k + 1), columns)
+            ends = probe.touching()
+            at_row = (k + 1, ends)
+            touching |= ends
             near.place(*_row(states, k + 1), columns)
             close = near.touching()
             probe.place(*_free_flight(states, k, world.gravity), columns)

@@ -28,10 +28,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..physics.engine import PhysicsEngine, RawRun
+from ..physics.reach import interaction_groups
 from ..world import (
     INITIAL_ANGLE,
     BodySpec,
     WorldSpec,
+    bounding_radius,
     dynamic_geometry,
     make_static,
 )
@@ -258,35 +260,15 @@ def _free(hypothesis: Hypothesis) -> int:
     return sum(c is None for c in hypothesis)
 
 
-def _extent(spec: BodySpec) -> float:
-    geo = spec.geometry
-    r = geo.circle_radius or 0.0
-    for poly in geo.polygons:
-        r = max(r, max(float(np.hypot(x, y)) for x, y in poly))
-    return r
-
-
 def _components(dynamic: Sequence[BodySpec], motions: Mapping[int, Motion], rows: int) -> list[list[int]]:
     """The groups of bodies that may touch each other within ``rows`` rows (bounding circles with a 1 m margin over
     their perceived paths, closed transitively): each group is fitted jointly, and groups never interact."""
-    paths = {b.uid: motions[b.uid].positions[: rows + 1] for b in dynamic}
-    reach = {b.uid: _extent(b) + 0.5 for b in dynamic}
-    parent = {b.uid: b.uid for b in dynamic}
-
-    def root(u: int) -> int:
-        while parent[u] != u:
-            u = parent[u]
-        return u
-
-    uids = [b.uid for b in dynamic]
-    for i, a in enumerate(uids):
-        for b in uids[i + 1:]:
-            if float(np.min(np.hypot(*(paths[a] - paths[b]).T))) <= reach[a] + reach[b]:
-                parent[root(a)] = root(b)
-    groups: dict[int, list[int]] = {}
-    for u in uids:
-        groups.setdefault(root(u), []).append(u)
-    return list(groups.values())
+    paths = np.stack([motions[b.uid].positions[: rows + 1] for b in dynamic], axis=1)
+    labels = interaction_groups(paths, [bounding_radius(b) for b in dynamic], margin=0.5)
+    groups: list[list[int]] = [[] for _ in range(max(labels) + 1)]
+    for b, g in zip(dynamic, labels):
+        groups[g].append(b.uid)
+    return groups
 
 
 def _gauss_newton(world: WorldSpec, motions: Mapping[int, Motion], engine: PhysicsEngine, layout_prior: bool,

@@ -41,6 +41,7 @@ is kept as it is and its stray is reported.
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -50,10 +51,12 @@ from scipy.optimize import linear_sum_assignment
 from ..perception.events import GeometryProbe
 from ..physics.engine import ContactLog, PhysicsEngine, RawRun, splice
 from ..physics.live import LiveSimulation, get_engine
+from ..physics.reach import interaction_groups
 from ..render.raster import SIM_FPS, Y_MAX, world_to_pixel
 from ..scenes import Choice, Uniform
 from ..simulation import Trajectory
-from ..world import GRAVITY, WorldSpec
+from ..world import GRAVITY, BodySpec, WorldSpec, bounding_radius
+from .jacobian import forward_jacobian
 from .layout_model import Attributes, LayoutModel
 from .track import EYE_BIAS, TrackedObject
 
@@ -123,6 +126,8 @@ ALTERNATIVE_P = 1e-4
 #: circle read at odds of 2,500 to 1, whose unanchored run strayed 6 px further than a cube's, read as a cube).
 ALTERNATIVE_PX_PER_NAT = 1.0
 _FD = 1e-5
+#: A draw of one slot's own (its position, say): ``dynamic[<slot>].``.
+_SLOT_PATH = re.compile(r"dynamic\[(\d+)\]\.")
 
 
 def keeps_alternative(score: float, alternative_score: float, p_current: float, p_alternative: float) -> bool:
@@ -291,10 +296,14 @@ class StartFit:
     def world(self, units: np.ndarray, choice: Mapping[str, float]) -> WorldSpec:
         return self.model.world(self.values(units, choice), self.attributes)
 
-    def predicted(self, world: WorldSpec, frames: int) -> dict[int, np.ndarray]:
-        """slot -> [frames, 2] predicted measured centroid (pixels) over the first ``frames`` frames."""
+    def run(self, units: np.ndarray, choice: Mapping[str, float], frames: int) -> RawRun:
+        """The run of these draws over the first ``frames`` frames."""
         shown = self.rows[:frames]
-        raw = self.engine.run(world, int(shown[-1]) if shown.size else 0)
+        return self.engine.run(self.world(units, choice), int(shown[-1]) if shown.size else 0)
+
+    def predicted(self, raw: RawRun, frames: int) -> dict[int, np.ndarray]:
+        """slot -> [frames, 2] predicted measured centroid (pixels) over the first ``frames`` frames of ``raw``."""
+        shown = self.rows[:frames]
         traj = raw.trajectory
         out = {}
         for s, uid in enumerate(self.uids):
@@ -313,8 +322,9 @@ class StartFit:
                                np.asarray(py) - biased * (sn * bx + c * by)], axis=1)
         return out
 
-    def residual(self, units: np.ndarray, choice: Mapping[str, float], frames: int) -> np.ndarray:
-        pred = self.predicted(self.world(units, choice), frames)
+    def residual_of(self, raw: RawRun, frames: int) -> np.ndarray:
+        """The weighted misfit (pixels) of ``raw`` against the observations of the first ``frames`` frames."""
+        pred = self.predicted(raw, frames)
         parts = []
         for s, obs in self.observed.items():
             o = obs[:frames]
@@ -323,6 +333,23 @@ class StartFit:
             w = np.where(o[ok, 2] > 0, 1.0, 10.0)[:, None]
             parts.append(((pred[s][ok] - o[ok, :2]) * w).ravel())
         return np.concatenate(parts) if parts else np.zeros(0)
+
+    def residual(self, units: np.ndarray, choice: Mapping[str, float], frames: int) -> np.ndarray:
+        return self.residual_of(self.run(units, choice, frames), frames)
+
+    def row_slots(self, frames: int) -> np.ndarray:
+        """The slot each entry of :meth:`residual_of` measures."""
+        parts = [np.full(2 * int(np.count_nonzero(~np.isnan(obs[:frames, 0]))), s)
+                 for s, obs in self.observed.items()]
+        return np.concatenate(parts) if parts else np.zeros(0, dtype=int)
+
+    def column_slots(self) -> list[int | None]:
+        """The slot each fitted draw places (None for a draw several slots read, such as a shared speed)."""
+        out: list[int | None] = []
+        for path in self.paths:
+            match = _SLOT_PATH.match(path)
+            out.append(int(match.group(1)) if match else None)
+        return out
 
     def fit(self, frames: int, start: np.ndarray | None = None) -> tuple[np.ndarray, dict[str, float], float]:
         """Best units, choice values and RMS residual (pixels) on the first ``frames`` frames."""
@@ -340,16 +367,22 @@ class StartFit:
         return best[0], best[1], float(np.sqrt(np.mean(r * r))) if r.size else 0.0
 
     def _gauss_newton(self, units: np.ndarray, choice: Mapping[str, float], frames: int) -> tuple[np.ndarray, float]:
-        r = self.residual(units, choice, frames)
+        raw = self.run(units, choice, frames)
+        r = self.residual_of(raw, frames)
         cost = float(r @ r)
+        slot_rows = self.row_slots(frames)
+        slot_columns = self.column_slots()
+        dynamic = [b for b in self.world(units, choice).bodies if b.dynamic]
         for _ in range(FIT_ITERATIONS):
             if not self.paths:
                 break
-            jac = np.empty((r.size, len(self.paths)))
-            for j in range(len(self.paths)):
-                du = units.copy()
-                du[j] += _FD if du[j] + _FD <= 1.0 else -_FD
-                jac[:, j] = (self.residual(du, choice, frames) - r) / (du[j] - units[j])
+            # the draws of slots whose bodies stay apart in this run are nudged in the same run
+            groups = _uid_groups(raw, self.uids, dynamic)
+            columns = [None if s is None else groups[s] for s in slot_columns]
+            rows = np.array([groups[s] for s in slot_rows], dtype=int)
+            steps = np.where(units + _FD <= 1.0, _FD, -_FD)
+            jac, _runs = forward_jacobian(lambda u: self.residual(u, choice, frames), units, r, steps, columns,
+                                          rows)
             # normal equations by einsum (a multithreaded BLAS is slow on a busy machine), lightly damped so that a
             # draw the window does not see keeps its value
             jtj = np.einsum("ij,ik->jk", jac, jac)
@@ -357,14 +390,25 @@ class StartFit:
             improved = False
             for alpha in (1.0, 0.5, 0.25, 0.1, 0.03):
                 trial = np.clip(units + alpha * step, 0.0, 1.0)
-                rt = self.residual(trial, choice, frames)
+                raw_t = self.run(trial, choice, frames)
+                rt = self.residual_of(raw_t, frames)
                 ct = float(rt @ rt)
                 if ct < cost:
-                    units, r, cost, improved = trial, rt, ct, True
+                    units, r, cost, raw, improved = trial, rt, ct, raw_t, True
                     break
             if not improved or float(np.max(np.abs(step))) < 1e-7:
                 break
         return units, cost
+
+
+def _uid_groups(raw: RawRun, uids: Sequence[int], dynamic: Sequence[BodySpec]) -> list[int]:
+    """The interaction group of the body of each of ``uids`` over ``raw`` (see :mod:`craft_dsl.reader.jacobian`),
+    every body of ``dynamic`` (the world's dynamic bodies) taking part."""
+    traj = raw.trajectory
+    cols = [traj.column(b.uid) for b in dynamic]
+    labels = interaction_groups(traj.positions[:, cols], [bounding_radius(b) for b in dynamic])
+    by_uid = {b.uid: g for b, g in zip(dynamic, labels)}
+    return [by_uid[u] for u in uids]
 
 
 def _frame_rows(rows: np.ndarray | Sequence[int] | None, frames: int) -> np.ndarray:
@@ -669,9 +713,11 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
     _place(probe, traj, start, {})
     allowed = probe.overlap_depths(movers) + OVERLAP_SLACK
 
-    def residual(params: np.ndarray) -> np.ndarray:
+    def run_at(params: np.ndarray) -> RawRun:
         offsets = {uid: params[6 * i:6 * i + 6] for i, uid in enumerate(movers)}
-        run = eng.run(_state_world(world, traj, start, offsets), int(shown[-1]))
+        return eng.run(_state_world(world, traj, start, offsets), int(shown[-1]))
+
+    def residual_of(run: RawRun) -> np.ndarray:
         t = run.trajectory
         parts = []
         for s, o in obs.items():
@@ -685,17 +731,21 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
             parts.append(((pred - o[:n, :2])[ok] * w[ok, None]).ravel())
         return np.concatenate(parts) if parts else np.zeros(0)
 
+    row_slots = np.concatenate([np.full(2 * int(np.count_nonzero(~np.isnan(o[:shown.size, 0]))), s)
+                                for s, o in obs.items()] or [np.zeros(0, dtype=int)])
+    dynamic = [b for b in world.bodies if b.dynamic]
     params = np.zeros(6 * len(movers))
-    r = residual(params)
+    run = run_at(params)
+    r = residual_of(run)
     cost = float(r @ r)
     before = cost
     steps_fd = np.tile([1e-4, 1e-4, 1e-4, 1e-3, 1e-3, 1e-3], len(movers))
     for _ in range(ANCHOR_ITERATIONS):
-        jac = np.empty((r.size, params.size))
-        for j in range(params.size):
-            dp = params.copy()
-            dp[j] += steps_fd[j]
-            jac[:, j] = (residual(dp) - r) / steps_fd[j]
+        # the states of movers that stay apart in this run are nudged in the same run
+        groups = dict(zip(fit.uids, _uid_groups(run, fit.uids, dynamic)))
+        columns = [groups[uid] for uid in movers for _k in range(6)]
+        rows = np.array([groups[fit.uids[s]] for s in row_slots], dtype=int)
+        jac, _runs = forward_jacobian(lambda p: residual_of(run_at(p)), params, r, steps_fd, columns, rows)
         # Levenberg-Marquardt: a state the window does not pin down (a body at rest) keeps its value
         jtj = np.einsum("ij,ik->jk", jac, jac)
         damped = jtj + np.diag(1e-3 * np.diag(jtj) + 1e-6)
@@ -704,10 +754,11 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
         improved = False
         for alpha in (1.0, 0.5, 0.25, 0.1):
             trial = _physical(probe, traj, start, movers, params + alpha * step, allowed)
-            rt = residual(trial)
+            run_t = run_at(trial)
+            rt = residual_of(run_t)
             ct = float(rt @ rt)
             if ct < cost:
-                params, r, cost, improved = trial, rt, ct, True
+                params, r, cost, run, improved = trial, rt, ct, run_t, True
                 break
         if not improved:
             break
