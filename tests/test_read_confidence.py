@@ -17,6 +17,7 @@ from craft_dsl.physics import simulate
 from craft_dsl.reader.answer import Question, answer_questions
 from craft_dsl.reader.confidence import (
     MODEL_PATH,
+    PREMISE_RATE,
     ConfidenceModel,
     default_model,
     feature_vector,
@@ -37,6 +38,8 @@ def answered() -> list:
                        "to the ground?"),
         Question(0, 2, "What color is the first object that collided with the large purple cube?"),  # not there
         Question(0, 3, "Is this a question?"),  # not understood
+        # two objects that are not there: no reading that reads one object otherwise holds both
+        Question(0, 4, "Does the small purple circle enter the basket before the small yellow triangle does?"),
     ]
     return answer_questions(export_perceived(sim), questions)
 
@@ -54,10 +57,12 @@ def test_every_answer_has_a_confidence_in_the_unit_interval(answered: list) -> N
 
 
 def test_guesses_get_a_low_confidence_and_unanswered_questions_none(answered: list) -> None:
-    read, guess, unanswered = answered[:2], answered[2], answered[3]
-    assert guess.fallback and guess.answer == "Gray"
-    assert guess.confidence == pytest.approx(default_model().guess_rate("color"), abs=1e-6)
-    assert guess.confidence < 0.5 and all(guess.confidence < a.confidence for a in read)
+    read, premise, unanswered, guess = answered[:2], answered[2], answered[3], answered[4]
+    assert guess.fallback and guess.answer == "False"
+    assert guess.confidence == pytest.approx(default_model().guess_rate("bool"), abs=1e-6)
+    assert guess.confidence <= 0.5 and all(guess.confidence < a.confidence for a in read)
+    # the object named is read into the scene (another object read otherwise): the premise rate
+    assert premise.premise is not None and not premise.fallback and premise.confidence == PREMISE_RATE
     assert unanswered.answer is None and unanswered.confidence == 0.0
 
 

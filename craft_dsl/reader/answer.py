@@ -23,6 +23,7 @@ from ..errors import CraftError, ReaderError
 from ..files import read_json, read_text
 from ..oracle.outcome import explain_invalid
 from ..perception.distribution import answer_distributions
+from ..perception.premise import premise_reading
 from ..perception.schema import PerceivedScene
 from ..perception.world import SceneModel
 from ..program import Program, to_json
@@ -53,9 +54,10 @@ class Answer:
     """The reader's answer to one question, as ``dataset_minimal.json`` writes answers (``"True"``, ``"2"``,
     ``"Red"``), with the probability of that answer when a distribution was computed, or the reason there is none.
     ``fallback``: the answer is a guess of the program's answer type (:func:`fallback_answer`), not read from the
-    video; ``error`` says why. ``warning``: why the video it was read from is not whole (its answers may be
-    wrong). ``confidence``: the probability that the answer is right (:mod:`craft_dsl.reader.confidence`), from
-    ``confidence_inputs``, what the reading showed about it."""
+    video; ``error`` says why. ``premise``: the answer comes from a reading one attribute away from the most likely
+    one, the one the question names (:mod:`craft_dsl.perception.premise`), and says which. ``warning``: why the
+    video it was read from is not whole (its answers may be wrong). ``confidence``: the probability that the answer
+    is right (:mod:`craft_dsl.reader.confidence`), from ``confidence_inputs``, what the reading showed about it."""
 
     question: Question
     answer: str | None
@@ -63,6 +65,7 @@ class Answer:
     program: str | None = None
     error: str | None = None
     fallback: bool = False
+    premise: str | None = None
     warning: str | None = None
     confidence: float | None = None
     confidence_inputs: dict[str, Any] | None = None
@@ -78,6 +81,8 @@ class Answer:
             out["error"] = self.error
         if self.fallback:
             out["fallback"] = True
+        if self.premise is not None:
+            out["premise"] = self.premise
         if self.warning is not None:
             out["warning"] = self.warning
         if self.confidence is not None:
@@ -327,11 +332,18 @@ def _answer_questions(model: SceneModel, questions: Sequence[Question], distribu
         if answer is None:  # the objects it names are not in the most likely world: weigh every reading
             d = answer_distributions(model, [program], samples=samples, seed=seed)[0]
             answer = format_answer(d.mode)
+            premise = None
+            if answer is None:  # the question names an object no reading holds: the premise says which it is
+                premise = premise_reading(model, program)
+                answer = None if premise is None else format_answer(premise.value)
             if answer is None:
                 where, why = explain_invalid(program, sim)
                 out.append(Answer(q, fallback_answer(program), None, str(program),
                                   f"INVALID in every reading: {why}" + (f" (at {where})" if where else ""),
                                   fallback=True))
+                continue
+            if premise is not None:
+                out.append(Answer(q, answer, None, str(program), premise=premise.describe()))
                 continue
             out.append(Answer(q, answer, d.p(d.mode), str(program)))
             continue

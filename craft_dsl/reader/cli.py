@@ -165,11 +165,14 @@ def cmd_read(args: argparse.Namespace) -> int:
         journal.remove()
     unanswered = sum(1 for v in predictions.values() if v is None)
     guessed = sum(1 for d in details if d.get("fallback"))
+    premised = sum(1 for d in details if d.get("premise"))
     partial = len({d["video_index"] for d in details if d.get("warning")})
     if not args.quiet:
         mean = sum(perception_s) / len(perception_s) if perception_s else 0.0
         print(f"wrote {args.out}: {len(predictions)} answers ({unanswered} unanswered, {guessed} guessed: "
-              f"'fallback' in --details) from {len(perception_s)} "
+              f"'fallback' in --details"
+              + (f"; {premised} on the reading their question names, 'premise'" if premised else "")
+              + f") from {len(perception_s)} "
               f"videos; perception {mean:.2f} s per video"
               + (f"; {partial} videos not whole (their answers carry a 'warning')" if partial else "")
               + (f"; {len(failed)} videos failed (errors above)" if failed else ""), file=sys.stderr)
@@ -200,7 +203,8 @@ def add_commands(sub: Any) -> None:
                                        "(default: none)")
     p.add_argument("--details", help="also write one JSON line per question (answer, confidence: the probability "
                                      "that it is right, probability, program, error, fallback: the answer is a "
-                                     "guess) to this file (default: none)")
+                                     "guess, premise: it is read on the reading the question names) to this file "
+                                     "(default: none)")
     p.add_argument("--distribution", action="store_true",
                    help="answer with the mode of each question's answer distribution and give its probability")
     p.add_argument("--samples", type=int, default=64, help="Monte Carlo readings of an answer distribution")

@@ -52,6 +52,10 @@ ALTERNATIVES: dict[str, dict[str, str]] = {"engine": {}, "resimulate": {"counter
                                            "derived": {"events": "derived"}}
 #: The other engine of each engine the reader keeps.
 OTHER_ENGINE = {"pymunk": "box2d", "box2d": "pymunk"}
+#: The confidence of an answer taken from the reading its question names (:mod:`craft_dsl.perception.premise`): the
+#: share of such answers that were right on development videos (43 of 51, 128-px copies; see docs/reader.md),
+#: rounded down.
+PREMISE_RATE = 0.8
 #: Answer types by the program's result type name.
 ANSWER_TYPES: tuple[str, ...] = ("bool", "count", "color", "shape", "size")
 #: The chance that a guess of each answer type is right (uniform over its values; counts: over 0-3): the prior of
@@ -145,7 +149,7 @@ def confidence_inputs(scene: PerceivedScene, questions: Sequence[Question], answ
 
     programs: list[Program | None] = []
     for q, a in zip(questions, answers):
-        if a.answer is None or a.fallback:
+        if a.answer is None or a.fallback or a.premise is not None:
             programs.append(None)
             continue
         try:
@@ -243,11 +247,15 @@ class ConfidenceModel:
             return float(self.fallback[key])
         return CHANCE.get(key, float(self.fallback.get("*", CHANCE["*"])))
 
-    def confidence(self, inputs: Mapping[str, Any] | None, fallback: bool = False, warning: bool = False) -> float:
-        """The probability that the answer with these inputs is right, in [0, 1]."""
+    def confidence(self, inputs: Mapping[str, Any] | None, fallback: bool = False, warning: bool = False,
+                   premise: bool = False) -> float:
+        """The probability that the answer with these inputs is right, in [0, 1] (``premise``: an answer from the
+        reading the question names, :data:`PREMISE_RATE`, at most the guess rate of a video not whole)."""
         kind = (inputs or {}).get("type")
         if (inputs or {}).get("answer", "") is None:  # unanswered: never right
             return 0.0
+        if premise and not fallback:
+            return round(min(PREMISE_RATE, self.guess_rate(kind)) if warning else PREMISE_RATE, 6)
         if fallback or inputs is None or "agree" not in inputs:
             return round(self.guess_rate(kind), 6)
         z = self.logit(inputs)
@@ -336,7 +344,7 @@ def with_confidence(scene: PerceivedScene, questions: Sequence[Question], answer
     model = model or default_model()
     out = []
     for a, inputs in zip(answers, confidence_inputs(scene, questions, answers, samples, seed, base)):
-        sure = model.confidence(inputs, a.fallback or a.answer is None, a.warning is not None)
+        sure = model.confidence(inputs, a.fallback or a.answer is None, a.warning is not None, a.premise is not None)
         out.append(replace(a, confidence=sure, confidence_inputs=inputs))
     return out
 
@@ -347,7 +355,8 @@ def rescore(answer: Answer, model: ConfidenceModel | None = None) -> Answer:
 
     model = model or default_model()
     return replace(answer, confidence=model.confidence(answer.confidence_inputs, answer.fallback or
-                                                       answer.answer is None, answer.warning is not None))
+                                                       answer.answer is None, answer.warning is not None,
+                                                       answer.premise is not None))
 
 
 __all__ = ["ALTERNATIVES", "CHANCE", "MODEL_PATH", "ConfidenceModel", "answer_type", "confidence_inputs",
