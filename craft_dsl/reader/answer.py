@@ -54,10 +54,11 @@ class Answer:
     """The reader's answer to one question, as ``dataset_minimal.json`` writes answers (``"True"``, ``"2"``,
     ``"Red"``), with the probability of that answer when a distribution was computed, or the reason there is none.
     ``fallback``: the answer is a guess of the program's answer type (:func:`fallback_answer`), not read from the
-    video; ``error`` says why. ``premise``: the answer comes from a reading one attribute away from the most likely
-    one, the one the question names (:mod:`craft_dsl.perception.premise`), and says which. ``warning``: why the
-    video it was read from is not whole (its answers may be wrong). ``confidence``: the probability that the answer
-    is right (:mod:`craft_dsl.reader.confidence`), from ``confidence_inputs``, what the reading showed about it."""
+    video; ``error`` says why. ``premise``: the answer comes from a reading that reads one object otherwise (one
+    or two of its attributes), the one the question names (:mod:`craft_dsl.perception.premise`), and says which.
+    ``warning``: why the video it was read from is not whole (its answers may be wrong). ``confidence``: the
+    probability that the answer is right (:mod:`craft_dsl.reader.confidence`), from ``confidence_inputs``,
+    what the reading showed about it."""
 
     question: Question
     answer: str | None

@@ -36,17 +36,15 @@ def perturbation_rounds(column_groups: Sequence[int | None]) -> list[list[int]]:
 
 
 def forward_jacobian(residual: Callable[[np.ndarray], np.ndarray], x: np.ndarray, r0: np.ndarray,
-                     steps: np.ndarray, column_groups: Sequence[int | None], row_groups: np.ndarray
-                     ) -> tuple[np.ndarray, int]:
+                     steps: np.ndarray, column_groups: Sequence[int | None], row_groups: np.ndarray) -> np.ndarray:
     """The forward-difference Jacobian of ``residual`` at ``x`` (where it is ``r0``), column ``j`` from a nudge of
-    ``steps[j]`` divided by the nudge as stored, and the number of residual evaluations it took.
+    ``steps[j]`` divided by the nudge as stored; one evaluation per run of :func:`perturbation_rounds`.
 
     ``column_groups[j]``: the interaction group of the body parameter ``j`` moves (None: it moves several);
     ``row_groups[i]``: the group of the body residual ``i`` measures. A run that nudges several columns gives each
     the difference on its own group's rows (zero elsewhere); a run of one column gives it every row."""
     jac = np.zeros((r0.size, x.size))
-    rounds = perturbation_rounds(column_groups)
-    for cols in rounds:
+    for cols in perturbation_rounds(column_groups):
         moved = x.copy()
         moved[cols] += steps[cols]
         diff = residual(moved) - r0
@@ -57,4 +55,4 @@ def forward_jacobian(residual: Callable[[np.ndarray], np.ndarray], x: np.ndarray
         for j in cols:
             rows = row_groups == column_groups[j]
             jac[rows, j] = diff[rows] / (moved[j] - x[j])
-    return jac, len(rounds)
+    return jac

@@ -337,12 +337,6 @@ class StartFit:
     def residual(self, units: np.ndarray, choice: Mapping[str, float], frames: int) -> np.ndarray:
         return self.residual_of(self.run(units, choice, frames), frames)
 
-    def row_slots(self, frames: int) -> np.ndarray:
-        """The slot each entry of :meth:`residual_of` measures."""
-        parts = [np.full(2 * int(np.count_nonzero(~np.isnan(obs[:frames, 0]))), s)
-                 for s, obs in self.observed.items()]
-        return np.concatenate(parts) if parts else np.zeros(0, dtype=int)
-
     def column_slots(self) -> list[int | None]:
         """The slot each fitted draw places (None for a draw several slots read, such as a shared speed)."""
         out: list[int | None] = []
@@ -370,19 +364,18 @@ class StartFit:
         raw = self.run(units, choice, frames)
         r = self.residual_of(raw, frames)
         cost = float(r @ r)
-        slot_rows = self.row_slots(frames)
+        slot_rows = _row_slots(self.observed, frames)
         slot_columns = self.column_slots()
         dynamic = [b for b in self.world(units, choice).bodies if b.dynamic]
         for _ in range(FIT_ITERATIONS):
             if not self.paths:
                 break
             # the draws of slots whose bodies stay apart in this run are nudged in the same run
-            groups = _uid_groups(raw, self.uids, dynamic)
-            columns = [None if s is None else groups[s] for s in slot_columns]
-            rows = np.array([groups[s] for s in slot_rows], dtype=int)
+            groups = _uid_groups(raw, dynamic)
+            columns = [None if s is None else groups[self.uids[s]] for s in slot_columns]
+            rows = np.array([groups[self.uids[s]] for s in slot_rows], dtype=int)
             steps = np.where(units + _FD <= 1.0, _FD, -_FD)
-            jac, _runs = forward_jacobian(lambda u: self.residual(u, choice, frames), units, r, steps, columns,
-                                          rows)
+            jac = forward_jacobian(lambda u: self.residual(u, choice, frames), units, r, steps, columns, rows)
             # normal equations by einsum (a multithreaded BLAS is slow on a busy machine), lightly damped so that a
             # draw the window does not see keeps its value
             jtj = np.einsum("ij,ik->jk", jac, jac)
@@ -401,14 +394,20 @@ class StartFit:
         return units, cost
 
 
-def _uid_groups(raw: RawRun, uids: Sequence[int], dynamic: Sequence[BodySpec]) -> list[int]:
-    """The interaction group of the body of each of ``uids`` over ``raw`` (see :mod:`craft_dsl.reader.jacobian`),
-    every body of ``dynamic`` (the world's dynamic bodies) taking part."""
+def _uid_groups(raw: RawRun, dynamic: Sequence[BodySpec]) -> dict[int, int]:
+    """uid -> interaction group over ``raw`` of each body of ``dynamic`` (the world's dynamic bodies; see
+    :mod:`craft_dsl.reader.jacobian`)."""
     traj = raw.trajectory
     cols = [traj.column(b.uid) for b in dynamic]
     labels = interaction_groups(traj.positions[:, cols], [bounding_radius(b) for b in dynamic])
-    by_uid = {b.uid: g for b, g in zip(dynamic, labels)}
-    return [by_uid[u] for u in uids]
+    return {b.uid: g for b, g in zip(dynamic, labels)}
+
+
+def _row_slots(observed: Mapping[int, np.ndarray], frames: int) -> np.ndarray:
+    """The slot each entry of a fit's residual measures: two entries (x, y) per seen frame among the first
+    ``frames``, slot by slot in the order of ``observed``."""
+    parts = [np.full(2 * int(np.count_nonzero(~np.isnan(obs[:frames, 0]))), s) for s, obs in observed.items()]
+    return np.concatenate(parts) if parts else np.zeros(0, dtype=int)
 
 
 def _frame_rows(rows: np.ndarray | Sequence[int] | None, frames: int) -> np.ndarray:
@@ -731,8 +730,7 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
             parts.append(((pred - o[:n, :2])[ok] * w[ok, None]).ravel())
         return np.concatenate(parts) if parts else np.zeros(0)
 
-    row_slots = np.concatenate([np.full(2 * int(np.count_nonzero(~np.isnan(o[:shown.size, 0]))), s)
-                                for s, o in obs.items()] or [np.zeros(0, dtype=int)])
+    row_slots = _row_slots(obs, shown.size)
     dynamic = [b for b in world.bodies if b.dynamic]
     params = np.zeros(6 * len(movers))
     run = run_at(params)
@@ -742,10 +740,10 @@ def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, 
     steps_fd = np.tile([1e-4, 1e-4, 1e-4, 1e-3, 1e-3, 1e-3], len(movers))
     for _ in range(ANCHOR_ITERATIONS):
         # the states of movers that stay apart in this run are nudged in the same run
-        groups = dict(zip(fit.uids, _uid_groups(run, fit.uids, dynamic)))
+        groups = _uid_groups(run, dynamic)
         columns = [groups[uid] for uid in movers for _k in range(6)]
         rows = np.array([groups[fit.uids[s]] for s in row_slots], dtype=int)
-        jac, _runs = forward_jacobian(lambda p: residual_of(run_at(p)), params, r, steps_fd, columns, rows)
+        jac = forward_jacobian(lambda p: residual_of(run_at(p)), params, r, steps_fd, columns, rows)
         # Levenberg-Marquardt: a state the window does not pin down (a body at rest) keeps its value
         jtj = np.einsum("ij,ik->jk", jac, jac)
         damped = jtj + np.diag(1e-3 * np.diag(jtj) + 1e-6)
