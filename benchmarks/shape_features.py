@@ -30,18 +30,10 @@ import numpy as np
 from reader_robustness import LOSSLESS_H264, Variant, ffmpeg_exe, make_copies
 
 from craft_dsl.reader.answer import find_videos
-from craft_dsl.reader.detect import blobs, grid_labels, grid_rims
 from craft_dsl.reader.layout import fit_layout
 from craft_dsl.reader.layout_model import layout_model
-from craft_dsl.reader.perceive import frame_steps_of
-from craft_dsl.reader.track import (
-    SHAPE_FEATURES,
-    _features,
-    classify_shape,
-    merge_colour_splits,
-    select_objects,
-    track,
-)
+from craft_dsl.reader.perceive import detect_objects, frame_steps_of
+from craft_dsl.reader.track import SHAPE_FEATURES, _features, classify_shape
 from craft_dsl.reader.video import decode_sized
 from craft_dsl.render.raster import DEFAULT_SIZE, static_layer
 from craft_dsl.scenes import sample_world
@@ -59,13 +51,11 @@ def body_rows(dataset: Path, index: int, video: Path) -> list[Row]:
     layout = fit_layout(frames)
     model = layout_model(layout.scene)
     background = static_layer(WorldSpec(bodies=layout.statics), frames.shape[1])
-    objects = select_objects(merge_colour_splits(track(blobs(grid_labels(frames, background), grid_rims(background)),
-                                                       len(frames), steps=rows), rows),
-                             len(model.layout.dynamic), frames)
+    objects = detect_objects(frames, background, len(model.layout.dynamic), rows,
+                             source if source != frames.shape[1] else None)
     truth = [b for b in sample_world(stats["scene"], stats["simulation_seed"]).bodies if b.dynamic]
     out: list[Row] = []
     for obj in objects:
-        obj.source_size = source
         named = [b for b in truth if b.color == obj.color_name]
         if len(named) != 1:
             continue

@@ -72,15 +72,59 @@ def color_table() -> np.ndarray:
     return np.where(ok, best, UNLABELLED).astype(np.int8)
 
 
-def lookup(pixels: np.ndarray) -> np.ndarray:
-    """Palette index (int8, -1 unlabelled) of uint8 RGB pixels [..., 3]."""
+#: Soft frames (a video drawn smaller than it is read, its edges and eyes blurred into its colour): a pixel takes a
+#: body colour P when it is a mix a*P + b*white + (1 - a - b)*black with a colour share ``a`` of at least
+#: :data:`SOFT_SHARE`, within :data:`SOFT_RESIDUAL` (RGB distance) of that mix. Mixing with white and black keeps a
+#: colour's hue, so a small red body softened with its eyes' white and black stays red (its core reads 60-70 from
+#: red itself and nearer brown, the nearest palette colour).
+SOFT_SHARE = 0.35
+SOFT_RESIDUAL = 12.0
+
+
+def mix_residual(rgb: np.ndarray, color: int) -> tuple[np.ndarray, np.ndarray]:
+    """For RGB values float [N, 3]: the share of palette colour ``color`` in the nearest mix of it with white and
+    black, and the RGB distance to that mix (both float [N])."""
+    basis = np.stack([PALETTE[color].astype(np.float64), np.full(3, 255.0)], axis=1)  # the colour, white; black is 0
+    share = np.clip(np.linalg.lstsq(basis, rgb.T, rcond=None)[0].T, 0.0, None)  # [N, 2]
+    total = share.sum(axis=1)
+    over = total > 1.0
+    share[over] /= total[over, None]
+    residual: np.ndarray = np.linalg.norm(share @ basis.T - rgb, axis=1)
+    return share[:, 0], residual
+
+
+@lru_cache(maxsize=1)
+def soft_color_table() -> np.ndarray:
+    """:func:`color_table` for soft frames: each bin within :data:`SOFT_RESIDUAL` of a mix of a body colour other
+    than gray (whose mixes with white and black are the grey axis that static rims also lie on) with white and black,
+    at a share of at least :data:`SOFT_SHARE`, takes the nearest such colour; the other bins keep their label."""
+    out = color_table().copy()
+    levels = (np.arange(32, dtype=np.float64) * 8 + 3.5)
+    r, g, b = np.meshgrid(levels, levels, levels, indexing="ij")
+    rgb = np.stack([r, g, b], axis=-1).reshape(-1, 3)
+    best_residual = np.full(len(rgb), np.inf)
+    best = np.full(len(rgb), UNLABELLED)
+    for i in range(len(COLORS)):
+        if i == GRAY:
+            continue
+        share, residual = mix_residual(rgb, i)
+        better = (share >= SOFT_SHARE) & (residual < best_residual)
+        best_residual[better] = residual[better]
+        best[better] = i
+    take = (best != UNLABELLED) & (best_residual <= SOFT_RESIDUAL)
+    out[take] = best[take]
+    return out
+
+
+def lookup(pixels: np.ndarray, soft: bool = False) -> np.ndarray:
+    """Palette index (int8, -1 unlabelled) of uint8 RGB pixels [..., 3] (``soft``: by :func:`soft_color_table`)."""
     q = pixels >> 3  # one pass over the contiguous pixels, then the channels packed in place
     idx = q[..., 0].astype(np.uint16)
     idx <<= 5
     idx |= q[..., 1]
     idx <<= 5
     idx |= q[..., 2]
-    out: np.ndarray = color_table()[idx]
+    out: np.ndarray = (soft_color_table() if soft else color_table())[idx]
     return out
 
 
@@ -96,9 +140,10 @@ def grid_rims(background: np.ndarray) -> np.ndarray:
     return out
 
 
-def grid_labels(frames: np.ndarray, background: np.ndarray) -> np.ndarray:
-    """Palette index per grid pixel, int8 [T, H/GRID, W/GRID]; body colours only over a clean background."""
-    labels = lookup(frames[:, ::GRID, ::GRID])
+def grid_labels(frames: np.ndarray, background: np.ndarray, soft: bool = False) -> np.ndarray:
+    """Palette index per grid pixel, int8 [T, H/GRID, W/GRID]; body colours only over a clean background (``soft``:
+    the frames are softer than the renderer draws them, see :func:`soft_color_table`)."""
+    labels = lookup(frames[:, ::GRID, ::GRID], soft)
     labels[labels >= WHITE] = UNLABELLED
     labels[(labels == GRAY) & grid_rims(background)[None]] = UNLABELLED
     return labels

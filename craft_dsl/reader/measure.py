@@ -59,12 +59,14 @@ class Measurement:
 
 
 def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tuple[int, int],
-            labels: np.ndarray | None = None, seed: tuple[int, int] | None = None) -> Measurement | None:
+            labels: np.ndarray | None = None, seed: tuple[int, int] | None = None, soft: bool = False
+            ) -> Measurement | None:
     """Measure the body of palette colour ``color`` in ``window`` (uint8 [h, w, 3]) over ``background`` (the
     static layer's same window); ``origin`` = (row, column) of the window in the frame. With ``seed`` (row, column
-    inside the window) only the connected piece nearest to it is measured."""
+    inside the window) only the connected piece nearest to it is measured. ``soft``: the frames are softer than the
+    renderer draws them (colours read by :func:`~craft_dsl.reader.detect.soft_color_table`)."""
     if labels is None:
-        labels = lookup(window)
+        labels = lookup(window, soft)
     # the antialiased rims of black statics read as gray: gray counts only over a flat background
     clean = clean_background(background)
     core = labels == color

@@ -42,6 +42,7 @@ from .track import (
     refine_frames,
     relink_merges,
     select_objects,
+    soft_source,
     track,
     verify_shape,
 )
@@ -100,11 +101,8 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     background = static_layer(WorldSpec(bodies=layout.statics), frames.shape[1])
     times["layout"] = time.perf_counter() - t
     t = time.perf_counter()
-    found = blobs(grid_labels(frames, background), grid_rims(background))
-    objects = select_objects(merge_colour_splits(track(found, len(frames), steps=rows), rows),
-                             len(model.layout.dynamic), frames)
-    for obj in objects:
-        obj.source_size = source_size if source_size is not None and source_size != frames.shape[1] else None
+    drawn_at = source_size if source_size is not None and source_size != frames.shape[1] else None
+    objects = detect_objects(frames, background, len(model.layout.dynamic), rows, drawn_at)
     pair_twins(objects)
     relink_merges(objects, frames, background)
     for obj in objects:
@@ -129,6 +127,18 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
         {s: run_end(trajectory, slot_uid(s, n_slots)) for s in rec.slots if s >= 0}, n_slots, rows)
     perceived = to_perceived(rec, objects, layout, rate, at_end)
     return Perception(perceived, layout, objects, rec, times, rate, rows)
+
+
+def detect_objects(frames: np.ndarray, background: np.ndarray, count: int | None, rows: np.ndarray,
+                   drawn_at: int | None = None) -> list[TrackedObject]:
+    """The tracks of the ``count`` most substantial bodies in ``frames`` (over the static layer ``background``;
+    ``rows``: the step of each frame), each marked with the size the video was drawn at where it was rescaled
+    (``drawn_at``, None: read at its own size)."""
+    found = blobs(grid_labels(frames, background, soft_source(drawn_at)), grid_rims(background))
+    tracks = merge_colour_splits(track(found, len(frames), steps=rows), rows)
+    for obj in tracks:
+        obj.source_size = drawn_at
+    return select_objects(tracks, count, frames)
 
 
 def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: StaticFit,

@@ -58,7 +58,7 @@ def refine(frames: np.ndarray, background: np.ndarray, shape: str, size: str, co
     cols = x0[k, None] + np.arange(win)[None, :]
     observed = frames[idx[k][:, None, None], rows[:, :, None], cols[:, None, :]].astype(np.float32)
     bg = background[rows[:, :, None], cols[:, None, :]].astype(np.float32)
-    labels = lookup(observed.astype(np.uint8))
+    labels = lookup(observed.astype(np.uint8), soft=blur > 0)  # softer frames: their colours read softly too
     name = COLORS[color]
     # other bodies' colours do not count, except on the body itself (a small dark body partly reads as gray)
     footprint, _ = shade_body(geometry, name, x[k], y[k], a[k], x0[k], y0[k], win, w_img)

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..render.raster import DEFAULT_SIZE
 from ..vocabulary import COLORS, SHAPES, SIZES
-from .detect import GRAY, PALETTE, Blob
+from .detect import GRAY, PALETTE, SOFT_RESIDUAL, Blob, mix_residual
 from .measure import Measurement, measure
 from .refine import refine
 
@@ -60,18 +60,19 @@ SHAPE_FEATURES: FeatureTable = {
     ("triangle", "large"): ((306.7, 0.808, 0.1930), (2.0, 0.005, 0.0005)),
     ("triangle", "small"): ((127.5, 0.820, 0.2140), (13.8, 0.056, 0.0128)),
 }
-#: The same for a video drawn at 128 px and read at :data:`DEFAULT_SIZE` (rescaled as it is decoded): blurred edges
-#: fall outside the palette's colours, so bodies measure smaller, small ones most (a small triangle 61 px^2 instead of
-#: 118). Medians and robust spreads (1.4826 x median absolute deviation, at least the native spread) of 299 bodies of
-#: the 108 test videos of a generated dataset (seed 3131) copied at 128 px by ffmpeg's ``scale`` (bicubic), lossless
-#: H.264: ``python benchmarks/shape_features.py --dataset DIR --size 128``.
+#: The same for a video drawn at 128 px and read at :data:`DEFAULT_SIZE` (rescaled as it is decoded), its colours
+#: read softly (:func:`soft_source`): bodies measure a little larger than drawn at 256 px, small ones most (a small
+#: circle 56 px^2 instead of 45), and rounder. Medians and robust spreads (1.4826 x median absolute deviation, at least
+#: the native spread) of 573 bodies of the 214 test videos of two generated datasets (seeds 9494, 9696) copied at
+#: 128 px by ffmpeg's ``scale`` (bicubic), lossless H.264: ``python benchmarks/shape_features.py --dataset DIR
+#: --dataset DIR2 --size 128``.
 SHAPE_FEATURES_128: FeatureTable = {
-    ("circle", "large"): ((294.4, 0.5642, 0.1619), (17.0, 0.0199, 0.0011)),
-    ("circle", "small"): ((29.6, 0.6016, 0.2025), (6.9, 0.0790, 0.0118)),
-    ("cube", "large"): ((373.2, 0.6361, 0.1667), (19.7, 0.0200, 0.0030)),
-    ("cube", "small"): ((38.8, 0.6288, 0.2049), (7.0, 0.0543, 0.0144)),
-    ("triangle", "large"): ((255.7, 0.7600, 0.1950), (21.7, 0.0254, 0.0044)),
-    ("triangle", "small"): ((61.2, 0.7930, 0.2411), (16.7, 0.0625, 0.0174)),
+    ("circle", "large"): ((336.5, 0.5969, 0.1625), (5.4, 0.0092, 0.0004)),
+    ("circle", "small"): ((56.3, 0.6438, 0.1862), (4.1, 0.0790, 0.0118)),
+    ("cube", "large"): ((427.1, 0.6740, 0.1680), (8.7, 0.0200, 0.0030)),
+    ("cube", "small"): ((75.3, 0.6489, 0.1831), (6.5, 0.0303, 0.0070)),
+    ("triangle", "large"): ((312.7, 0.7909, 0.1909), (11.0, 0.0244, 0.0022)),
+    ("triangle", "small"): ((126.2, 0.7991, 0.2052), (13.8, 0.0560, 0.0128)),
 }
 #: Blur (pixels, Gaussian sigma at :data:`DEFAULT_SIZE`) that a video drawn at 128 px has once rescaled: the drawing
 #: that render-and-compare fits is blurred as much (see :func:`source_blur`). On the copies above, the residual picks
@@ -103,6 +104,13 @@ def shape_features(source_size: int | None = None) -> FeatureTable:
 
     return {key: (mix(SHAPE_FEATURES[key][0], SHAPE_FEATURES_128[key][0]),
                   mix(SHAPE_FEATURES[key][1], SHAPE_FEATURES_128[key][1])) for key in SHAPE_FEATURES}
+
+
+def soft_source(source_size: int | None = None) -> bool:
+    """Whether frames drawn at ``source_size`` px are softer than the renderer draws them once read at
+    :data:`DEFAULT_SIZE` (drawn smaller): their colours are read by
+    :func:`~craft_dsl.reader.detect.soft_color_table`."""
+    return _upscaling(source_size) > 0.0
 
 
 def source_blur(source_size: int | None = None) -> float:
@@ -494,10 +502,13 @@ def purity(obj: TrackedObject, frames: np.ndarray) -> float:
     core = core_colour(obj, frames)
     if core is None:
         return IMPURE_WEIGHT
-    distance = float(np.linalg.norm(core - PALETTE[obj.color]))
-    if distance < PURE_RADIUS:
+    if soft_source(obj.source_size):  # a soft body's core is its colour mixed with white and black (its eyes)
+        distance, radius = float(mix_residual(core[None], obj.color)[1][0]), SOFT_RESIDUAL
+    else:
+        distance, radius = float(np.linalg.norm(core - PALETTE[obj.color])), PURE_RADIUS
+    if distance < radius:
         return 1.0
-    return IMPURE_WEIGHT * math.exp(-((distance - PURE_RADIUS) / PURE_RADIUS) ** 2)
+    return IMPURE_WEIGHT * math.exp(-((distance - radius) / radius) ** 2)
 
 
 def select_objects(objects: list[TrackedObject], count: int | None, frames: np.ndarray) -> list[TrackedObject]:
@@ -541,6 +552,7 @@ def measure_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarra
     it is kept, marked not complete."""
     size = frames.shape[1]
     half = WINDOW // 2
+    soft = soft_source(obj.source_size)
     for k in which:
         if k in obj.measurements:
             continue
@@ -550,7 +562,7 @@ def measure_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarra
         x0 = min(max(int(b.x) - half, 0), size - WINDOW)
         y0 = min(max(int(b.y) - half, 0), size - WINDOW)
         m = measure(frames[k, y0:y0 + WINDOW, x0:x0 + WINDOW], background[y0:y0 + WINDOW, x0:x0 + WINDOW],
-                    obj.color, (y0, x0), seed=(int(b.y) - y0, int(b.x) - x0))
+                    obj.color, (y0, x0), seed=(int(b.y) - y0, int(b.x) - x0), soft=soft)
         if m is None:
             continue
         if m.complete and any((t := twin.blobs[k]) is not None and math.hypot(t.x - m.x, t.y - m.y) <= m.radius
