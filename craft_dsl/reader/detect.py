@@ -6,7 +6,8 @@ black statics and a light-grey basket sensor, so detection is colour arithmetic,
 1. **Colour lookup.** Every pixel of a half-resolution grid is classified by a lookup table over RGB quantised to 5
    bits per channel: the nearest palette colour if within :data:`COLOR_RADIUS` (MPEG artefacts and antialiased
    edges fall outside and stay unlabelled), built once. Where the static background is not a flat colour (the
-   antialiased rims of statics, whose greys would read as "gray") gray is not read.
+   antialiased rims of statics, whose greys would read as "gray") gray is not read. A video drawn smaller than it is
+   read (its bodies softened into their eyes and the background) reads colours softly: :func:`soft_color_table`.
 2. **Blobs.** Connected pieces of each body colour, per frame (one labelling call over the whole video), with their
    grid area and centroid: a :class:`Blob`. Two touching bodies of one colour make one blob; the tracker
    (:mod:`craft_dsl.reader.track`) notices it by its area.
