@@ -23,6 +23,11 @@ from .detect import WHITE, lookup
 
 #: Blur (pixels) of each Gauss-Newton iteration: coarse first, so that a guess two pixels off still sees the edges.
 BLUR: tuple[float, ...] = (2.0, 1.0, 0.0, 0.0)
+#: First angles of a small circle's or cube's pose in a soft video (see :func:`refine`'s ``starts``): only the eyes fix
+#: those bodies' angles, and blurred eyes leave the fit from the eyes' own angle in a wrong minimum that the centre
+#: pays for. On 25 development videos copied at 128 px the poses of small circles were off by 0.49 px at the median
+#: from one start, 0.16 from four (quarter turns), 0.13 from eight; small cubes 0.33 -> 0.13 from four.
+SOFT_ANGLE_STARTS = 4
 #: Finite-difference steps: centre (pixels) and angle (radians).
 _STEP_PX = 0.05
 _DILATE = np.zeros((3, 3, 3), dtype=bool)
@@ -31,13 +36,28 @@ _STEP_RAD = 0.01
 
 
 def refine(frames: np.ndarray, background: np.ndarray, shape: str, size: str, color: int,
-           which: Sequence[int], x: np.ndarray, y: np.ndarray, angle: np.ndarray, blur: float = 0.0
-           ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+           which: Sequence[int], x: np.ndarray, y: np.ndarray, angle: np.ndarray, blur: float = 0.0,
+           starts: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Centre (pixels) and angle of the body in frames ``which`` from a first guess; also the RMS residual per frame
     (grey levels), which is small when the guessed shape and size are right. Frames whose window leaves the
     picture are returned unchanged with an infinite residual. ``blur``: Gaussian sigma (pixels) by which the
     frames are softer than the renderer draws (a video rescaled from a smaller size): the drawing is blurred as
-    much before it is compared."""
+    much before it is compared. ``starts``: each frame is fitted from that many first angles spread evenly over a
+    turn (the guessed one first), and the fit with the least residual is kept (see :data:`SOFT_ANGLE_STARTS`)."""
+    best = _refine_from(frames, background, shape, size, color, which, x, y, angle, blur)
+    for j in range(1, starts):
+        turned = np.asarray(angle, dtype=np.float64) + 2.0 * math.pi * j / starts
+        other = _refine_from(frames, background, shape, size, color, which, x, y, turned, blur)
+        better = other[3] < best[3]
+        for mine, theirs in zip(best, other):
+            mine[better] = theirs[better]
+    return best
+
+
+def _refine_from(frames: np.ndarray, background: np.ndarray, shape: str, size: str, color: int,
+                 which: Sequence[int], x: np.ndarray, y: np.ndarray, angle: np.ndarray, blur: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`refine` from one first guess."""
     n_frames, h, w_img = frames.shape[:3]
     geometry = dynamic_geometry(shape, size)
     extent = (geometry.circle_radius or max(math.hypot(px, py) for poly in geometry.polygons for px, py in poly))

@@ -35,7 +35,7 @@ from ..render.raster import DEFAULT_SIZE
 from ..vocabulary import COLORS, SHAPES, SIZES
 from .detect import GRAY, PALETTE, SOFT_RESIDUAL, Blob, mix_residual
 from .measure import Measurement, measure
-from .refine import refine
+from .refine import SOFT_ANGLE_STARTS, refine
 
 #: A colour counts n bodies when at least this many frames show n separate substantial blobs of it.
 MIN_FRAMES = 6
@@ -598,8 +598,11 @@ def refine_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarray
     todo = [k for k in which if k not in obj.poses and k in obj.measurements and obj.measurements[k].complete]
     if not todo:
         return
+    # a soft video's small circles and cubes: their blurred eyes, all that fixes their angle, mislead one start
+    starts = SOFT_ANGLE_STARTS if soft_source(obj.source_size) and size == "small" and shape != "triangle" else 1
     x, y, fitted, rms = refine(frames, background, shape, size, obj.color, todo,
-                               *_measured_poses(obj, todo, shape, size), blur=source_blur(obj.source_size))
+                               *_measured_poses(obj, todo, shape, size), blur=source_blur(obj.source_size),
+                               starts=starts)
     for i, k in enumerate(todo):
         if np.isfinite(rms[i]) and rms[i] < MAX_REFINE_RMS:
             obj.poses[k] = (float(x[i]), float(y[i]), float(fitted[i]))
