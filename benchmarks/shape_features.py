@@ -51,8 +51,7 @@ def body_rows(dataset: Path, index: int, video: Path) -> list[Row]:
     layout = fit_layout(frames)
     model = layout_model(layout.scene)
     background = static_layer(WorldSpec(bodies=layout.statics), frames.shape[1])
-    objects = detect_objects(frames, background, len(model.layout.dynamic), rows,
-                             source if source != frames.shape[1] else None)
+    objects = detect_objects(frames, background, len(model.layout.dynamic), rows, source)
     truth = [b for b in sample_world(stats["scene"], stats["simulation_seed"]).bodies if b.dynamic]
     out: list[Row] = []
     for obj in objects:

@@ -157,9 +157,8 @@ def make_dynamic(uid: int, shape: str, color: str, size: str, position: Point,
                     angle=angle, velocity=velocity, geometry=dynamic_geometry(shape, size))
 
 
-def bounding_radius(spec: BodySpec) -> float:
-    """The radius (metres) of the smallest circle about the body's origin that holds its polygons and circle."""
-    geo = spec.geometry
+def bounding_radius(geo: Geometry) -> float:
+    """The radius (metres) of the smallest circle about a body's origin that holds its polygons and circle."""
     r = geo.circle_radius or 0.0
     for poly in geo.polygons:
         r = max(r, max(math.hypot(x, y) for x, y in poly))

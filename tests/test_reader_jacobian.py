@@ -101,7 +101,8 @@ def test_nudging_a_body_leaves_a_body_out_of_its_reach_untouched(engine: str) ->
     base = eng.run(world, 120)
     traj = base.trajectory
     cols = [traj.column(a.uid), traj.column(b.uid)]
-    assert interaction_groups(traj.positions[:, cols], [bounding_radius(a), bounding_radius(b)]) == [0, 1]
+    radii = [bounding_radius(a.geometry), bounding_radius(b.geometry)]
+    assert interaction_groups(traj.positions[:, cols], radii) == [0, 1]
     nudged = replace(world, bodies=tuple(replace(body, position=(body.position[0] + 1e-4, body.position[1]),
                                                  velocity=(body.velocity[0] + 1e-3, body.velocity[1]))
                                          if body.uid == a.uid else body for body in world.bodies))
@@ -115,5 +116,5 @@ def test_bounding_radius_holds_every_vertex() -> None:
     cube = make_dynamic(0, "cube", "red", "large", (0.0, 0.0))
     circle = make_dynamic(0, "circle", "red", "small", (0.0, 0.0))
     corners = [np.hypot(x, y) for poly in cube.geometry.polygons for x, y in poly]
-    assert bounding_radius(cube) == pytest.approx(max(corners))
-    assert bounding_radius(circle) == circle.geometry.circle_radius
+    assert bounding_radius(cube.geometry) == pytest.approx(max(corners))
+    assert bounding_radius(circle.geometry) == circle.geometry.circle_radius

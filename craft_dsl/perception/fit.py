@@ -264,7 +264,7 @@ def _components(dynamic: Sequence[BodySpec], motions: Mapping[int, Motion], rows
     """The groups of bodies that may touch each other within ``rows`` rows (bounding circles with a 1 m margin over
     their perceived paths, closed transitively): each group is fitted jointly, and groups never interact."""
     paths = np.stack([motions[b.uid].positions[: rows + 1] for b in dynamic], axis=1)
-    labels = interaction_groups(paths, [bounding_radius(b) for b in dynamic], margin=0.5)
+    labels = interaction_groups(paths, [bounding_radius(b.geometry) for b in dynamic], margin=0.5)
     groups: list[list[int]] = [[] for _ in range(max(labels) + 1)]
     for b, g in zip(dynamic, labels):
         groups[g].append(b.uid)

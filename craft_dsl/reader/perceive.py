@@ -101,8 +101,7 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     background = static_layer(WorldSpec(bodies=layout.statics), frames.shape[1])
     times["layout"] = time.perf_counter() - t
     t = time.perf_counter()
-    drawn_at = source_size if source_size is not None and source_size != frames.shape[1] else None
-    objects = detect_objects(frames, background, len(model.layout.dynamic), rows, drawn_at)
+    objects = detect_objects(frames, background, len(model.layout.dynamic), rows, source_size)
     pair_twins(objects)
     relink_merges(objects, frames, background)
     for obj in objects:
@@ -130,10 +129,11 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
 
 
 def detect_objects(frames: np.ndarray, background: np.ndarray, count: int | None, rows: np.ndarray,
-                   drawn_at: int | None = None) -> list[TrackedObject]:
+                   source_size: int | None = None) -> list[TrackedObject]:
     """The tracks of the ``count`` most substantial bodies in ``frames`` (over the static layer ``background``;
-    ``rows``: the step of each frame), each marked with the size the video was drawn at where it was rescaled
-    (``drawn_at``, None: read at its own size)."""
+    ``rows``: the step of each frame), each marked with the size the video was drawn at (``source_size``) where it
+    was rescaled to the frames' size (None: read at its own size)."""
+    drawn_at = source_size if source_size is not None and source_size != frames.shape[1] else None
     found = blobs(grid_labels(frames, background, soft_source(drawn_at)), grid_rims(background))
     tracks = merge_colour_splits(track(found, len(frames), steps=rows), rows)
     for obj in tracks:

@@ -399,7 +399,7 @@ def _uid_groups(raw: RawRun, dynamic: Sequence[BodySpec]) -> dict[int, int]:
     :mod:`craft_dsl.reader.jacobian`)."""
     traj = raw.trajectory
     cols = [traj.column(b.uid) for b in dynamic]
-    labels = interaction_groups(traj.positions[:, cols], [bounding_radius(b) for b in dynamic])
+    labels = interaction_groups(traj.positions[:, cols], [bounding_radius(b.geometry) for b in dynamic])
     return {b.uid: g for b, g in zip(dynamic, labels)}
 
 

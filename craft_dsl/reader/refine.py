@@ -18,7 +18,7 @@ from scipy import ndimage as ndi
 
 from ..render.raster import shade_body
 from ..vocabulary import COLORS
-from ..world import dynamic_geometry
+from ..world import bounding_radius, dynamic_geometry
 from .detect import WHITE, lookup
 
 #: Blur (pixels) of each Gauss-Newton iteration: coarse first, so that a guess two pixels off still sees the edges.
@@ -60,7 +60,7 @@ def _refine_from(frames: np.ndarray, background: np.ndarray, shape: str, size: s
     """:func:`refine` from one first guess."""
     n_frames, h, w_img = frames.shape[:3]
     geometry = dynamic_geometry(shape, size)
-    extent = (geometry.circle_radius or max(math.hypot(px, py) for poly in geometry.polygons for px, py in poly))
+    extent = bounding_radius(geometry)
     ppm = w_img / 50.0
     win = int(math.ceil(2 * extent * ppm)) + 6
     idx = np.asarray(list(which), dtype=np.int64)
