@@ -8,7 +8,8 @@ distributions, the static poses, per-frame tracks with velocities (the reconstru
 reconstructed run; ``craft_dsl.perception`` executes programs over it like over any perceived scene.
 
 Frame rates: frame ``k`` shows the state after ``frame_steps[k]`` steps (:func:`~craft_dsl.reader.video.steps_shown`
-of the video's rate, :func:`~craft_dsl.reader.video.frame_rate` measuring it). Tracking runs over the frames; the
+of the video's rate, :func:`~craft_dsl.reader.video.frame_rate` measuring it; a resampled copy's frames earlier by the
+offset :mod:`~craft_dsl.reader.timing` measures). Tracking runs over the frames; the
 reconstruction compares its runs with them at the steps they show, and the perceived scene is the reconstructed run
 at 60 fps (one frame per step: events to the step) whatever the video's rate.
 """
@@ -33,6 +34,8 @@ from .ending import run_end, scene_moving_at_end
 from .layout import StaticFit, fit_layout
 from .layout_model import layout_model
 from .reconstruct import Reconstruction, fit_frames, reader_engines, reconstruct_best, slot_uid, start_frames
+from .timing import frame_offset as measure_offset
+from .timing import offsets_allowed
 from .track import (
     TrackedObject,
     classify_shape,
@@ -60,6 +63,7 @@ class Perception:
     timings: dict[str, float] = field(default_factory=dict)
     frame_rate: FrameRate = FrameRate(60.0, "given")  # the rate the frames were read at, and where it comes from
     frame_steps: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # step shown by each frame
+    frame_offset: int = 0  # steps each frame shows earlier than the rate's rule (measured or given)
 
 
 def frame_steps_of(frames: int, fps: float | None = None, frame_steps: Sequence[int] | np.ndarray | None = None
@@ -83,7 +87,8 @@ def frame_steps_of(frames: int, fps: float | None = None, frame_steps: Sequence[
 def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[str, float] | None = None,
                     engines: Sequence[str] | None = None, fps: float | None = None,
                     frame_steps: Sequence[int] | np.ndarray | None = None,
-                    rate: FrameRate | None = None, source_size: int | None = None) -> Perception:
+                    rate: FrameRate | None = None, source_size: int | None = None,
+                    frame_offset: int | None = None) -> Perception:
     """Perceive decoded frames uint8 [T, H, W, 3] (``scene``: skip the identification). ``engines``: the physics
     engines to reconstruct the motion with (default :func:`~craft_dsl.reader.reconstruct.reader_engines`: Box2D
     first where the statics' edges are aliased, as the original CRAFT renderer draws them); the
@@ -91,8 +96,16 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     ``fps`` (default 60) or ``frame_steps`` (the step each frame shows, for any other timing) say when the frames
     were taken; ``rate`` only records where ``fps`` came from. ``source_size``: the video's own frame size when the
     frames were rescaled to the reader's size as they were decoded (a smaller video's bodies look smaller and softer,
-    see :func:`~craft_dsl.reader.track.shape_features`)."""
+    see :func:`~craft_dsl.reader.track.shape_features`). ``frame_offset``: the steps each frame shows earlier than
+    the rate's rule says (0 or negative; a copy resampled by ffmpeg's ``fps=10`` filter: -3); None: measured where
+    frames are more than a step apart and ``frame_steps`` are not given (:mod:`~craft_dsl.reader.timing`)."""
     given, rows = frame_steps_of(len(frames), fps, frame_steps)
+    if frame_offset is not None:
+        if frame_steps is not None:
+            raise ReaderError("give frame_steps or frame_offset, not both")
+        if frame_offset not in offsets_allowed(rows):
+            raise ReaderError(f"frame_offset {frame_offset!r} is not one these frames can have: "
+                              f"{', '.join(map(str, offsets_allowed(rows)))} (steps earlier than the rate's rule)")
     rate = rate if rate is not None else given
     times = timings if timings is not None else {}
     t = time.perf_counter()
@@ -117,15 +130,19 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
 
     if engines is None:  # the original CRAFT renderer's look: its physics (Box2D) first
         engines = reader_engines(layout.aliased)
-    rec = reconstruct_best(model, layout.values, objects, len(frames), steps=int(rows[-1]), engines=engines,
+    steps = int(rows[-1])  # the run the frames were taken from ends where the rule's last frame does
+    if frame_offset is None and frame_steps is None:
+        frame_offset = measure_offset(model, layout.values, objects, len(frames), rows, engines[0], measure).steps
+    rows = rows + (frame_offset or 0)
+    rec = reconstruct_best(model, layout.values, objects, len(frames), steps=steps, engines=engines,
                            measure=measure, rows=rows)
     times["reconstruct"] = time.perf_counter() - t
     n_slots, trajectory = len(rec.attributes), rec.simulation.trajectory
     at_end = {} if trajectory is None else scene_moving_at_end(
         {slot: obj.blobs for obj, slot in zip(objects, rec.slots) if slot >= 0},
         {s: run_end(trajectory, slot_uid(s, n_slots)) for s in rec.slots if s >= 0}, n_slots, rows)
-    perceived = to_perceived(rec, objects, layout, rate, at_end)
-    return Perception(perceived, layout, objects, rec, times, rate, rows)
+    perceived = to_perceived(rec, objects, layout, rate, at_end, frame_offset or 0)
+    return Perception(perceived, layout, objects, rec, times, rate, rows, frame_offset or 0)
 
 
 def detect_objects(frames: np.ndarray, background: np.ndarray, count: int | None, rows: np.ndarray,
@@ -142,12 +159,13 @@ def detect_objects(frames: np.ndarray, background: np.ndarray, count: int | None
 
 
 def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: StaticFit,
-                 rate: FrameRate | None = None, moving_at_end: Mapping[int, bool] | None = None) -> PerceivedScene:
+                 rate: FrameRate | None = None, moving_at_end: Mapping[int, bool] | None = None,
+                 frame_offset: int = 0) -> PerceivedScene:
     """The PerceivedScene of a reconstruction: the exported run (60 fps), with the attribute probabilities the
     detector gives (the colour is read directly; shape and size from :func:`~craft_dsl.reader.track.classify_shape`);
     the rate the video was read at goes to ``meta`` where it is not 60 fps. ``moving_at_end`` (by slot): whether the
     frames show each body moving when the video ends (:func:`~craft_dsl.reader.ending.scene_moving_at_end`), the
-    objects' ``moving_end`` instead of the run's last velocities."""
+    objects' ``moving_end`` instead of the run's last velocities; ``frame_offset`` (where not 0) too."""
     scene = export_perceived(rec.simulation)
     n = len(rec.attributes)
     probs: dict[int, dict[str, Any]] = {}
@@ -177,6 +195,8 @@ def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: Stat
             "engines_tried": list(rec.tried)}
     if rate is not None and rate.fps != 60.0:
         meta.update(video_fps=rate.fps, video_fps_source=rate.source)
+    if frame_offset:
+        meta["frame_offset"] = frame_offset
     return scene.model_copy(update={"objects": objs, "meta": meta})
 
 
@@ -200,13 +220,15 @@ def _with_mode(dist: dict[str, float], mode: str) -> dict[str, float]:
 
 def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scene: int | None = None,
                    engines: Sequence[str] | None = None, fps: float | None = None,
-                   frame_steps: Sequence[int] | np.ndarray | None = None) -> Perception:
+                   frame_steps: Sequence[int] | np.ndarray | None = None, frame_offset: int | None = None
+                   ) -> Perception:
     """Perceive a video file (see the module docstring and :func:`perceive_frames`). Its frame rate is measured
-    (:func:`~craft_dsl.reader.video.frame_rate`) unless ``fps`` or ``frame_steps`` state it."""
+    (:func:`~craft_dsl.reader.video.frame_rate`) unless ``fps`` or ``frame_steps`` state it, and so is the step its
+    first frame shows unless ``frame_offset`` or ``frame_steps`` state it."""
     timings: dict[str, float] = {}
     t = time.perf_counter()
     frames, source = decode_sized(path, decoder, size=DEFAULT_SIZE)  # another size is read at the reader's size
     rate = frame_rate(path, len(frames)) if fps is None and frame_steps is None else None
     timings["decode"] = time.perf_counter() - t
     return perceive_frames(frames, scene, timings, engines, rate.fps if rate is not None else fps, frame_steps, rate,
-                           source_size=source)
+                           source_size=source, frame_offset=frame_offset)
