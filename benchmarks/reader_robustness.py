@@ -17,7 +17,12 @@ own as ``<id6>.<ext>``, the names ``craft-dsl read --videos FOLDER`` finds:
   frame i (1-based) is the original's frame of step 6i-3 (measured: :func:`step_offsets`), not the renderer's
   convention (``craft_dsl.render.raster.frame_steps``: step round(i * 60 / fps) = 6i);
 * ``fps-10-down``: ``fps=10:round=down``, lossless H.264: frame i is the original's frame of step 6i exactly, the
-  renderer's convention (``craft-dsl render --fps 10``).
+  renderer's convention (``craft-dsl render --fps 10``);
+* ``fps-5``: 5 frames per second by ffmpeg's ``fps=5`` filter, lossless H.264: frame i is the original's frame of
+  step 12i-6, 6 steps before the renderer's.
+
+The reader measures the step offset of a resampled copy (``craft_dsl.reader.timing``); each resampled variant's row
+says how many of its videos were read at which offset.
 
 Lossless H.264 (``-qp 0``, yuv420p like the originals) makes the rescaled and resampled copies differ from the
 originals by that one change. The reader reads each variant as ``craft-dsl read`` does (its unit of work
@@ -50,6 +55,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections import Counter
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -98,6 +104,7 @@ VARIANTS: dict[str, Variant] = {v.name: v for v in (
     Variant("scale-512", ".mp4", ("-vf", "scale=512:512", *LOSSLESS_H264), "libx264", "h264", size=512),
     Variant("fps-10", ".mp4", ("-vf", "fps=10", *LOSSLESS_H264), "libx264", "h264", fps=10),
     Variant("fps-10-down", ".mp4", ("-vf", "fps=10:round=down", *LOSSLESS_H264), "libx264", "h264", fps=10),
+    Variant("fps-5", ".mp4", ("-vf", "fps=5", *LOSSLESS_H264), "libx264", "h264", fps=5),
 )}
 
 
@@ -184,15 +191,18 @@ def expected(variant: Variant, source_frames: int, source_size: int) -> dict[str
     return {"codec": variant.codec, "width": size, "height": size, "frames": frames}
 
 
-def step_offsets(source: Path, copy: Path, fps: float, reach: int = 5) -> list[int]:
+def step_offsets(source: Path, copy: Path, fps: float, reach: int | None = None) -> list[int]:
     """For each frame i of ``copy`` (a resampling of the 60 fps ``source``, same size) whose nearest source frame
-    is unambiguous: the step that source frame shows minus ``frame_steps``'s step of frame i (0: the renderer's
-    convention). Source frame k (0-based) shows step k + 1."""
+    (within ``reach`` frames, default the copy's frame spacing) is unambiguous: the step that source frame shows
+    minus ``frame_steps``'s step of frame i (0: the renderer's convention). Source frame k (0-based) shows step
+    k + 1."""
     from craft_dsl.reader.video import decode
 
     src = decode(source).astype(np.int16)
     ours = decode(copy).astype(np.int16)
     rows = frame_steps(len(src), fps)
+    if reach is None:
+        reach = max(int(round(60 / fps)), 1)
     out = []
     for i, frame in enumerate(ours[: len(rows)]):
         k = int(rows[i]) - 1
@@ -255,7 +265,7 @@ def load_suite(root: Path, limit: int | None = None) -> Suite:
 
 def read_variant(paths: dict[int, Path], tests: Suite, workers: int) -> dict[int, dict[str, Any]]:
     """Each video read as ``craft-dsl read`` reads it: video_index -> {answers, fallback, warning, perception_s,
-    scene} or {error}."""
+    scene, frame_offset} or {error}."""
     by_video = tests.by_video()
     jobs = [(v, (str(paths[v]), by_video[v])) for v in tests.videos]
     out: dict[int, dict[str, Any]] = {}
@@ -264,11 +274,12 @@ def read_variant(paths: dict[int, Path], tests: Suite, workers: int) -> dict[int
         if "error" in result:
             out[index] = {"error": result["error"]}
         else:
-            scene = json.loads(result["scene"]).get("scene")
+            perceived = json.loads(result["scene"])
             out[index] = {"answers": {a.question.key: a.answer for a in result["answers"]},
                           "fallback": sum(a.fallback for a in result["answers"]),
                           "warning": result.get("warning"), "perception_s": result["timings"]["perception"],
-                          "scene": scene}
+                          "scene": perceived.get("scene"),
+                          "frame_offset": int((perceived.get("meta") or {}).get("frame_offset", 0))}
         print(f"\r  read {len(out)}/{len(jobs)} videos", end="", file=sys.stderr, flush=True)
 
     def crashed(index: int, message: str) -> None:
@@ -310,6 +321,7 @@ def figures(results: dict[int, dict[str, Any]], tests: Suite, scenes: dict[int, 
         layout_ok=sum(scenes.get(v) == r.get("scene") for v, r in results.items() if "error" not in r),
         layout_known=sum(v in scenes for v, r in results.items() if "error" not in r),
         perception_s=float(np.mean([r["perception_s"] for r in read])) if read else None,
+        frame_offsets={str(k): n for k, n in sorted(Counter(r.get("frame_offset", 0) for r in read).items())},
     )
     return out
 
@@ -517,6 +529,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         if "step_offsets" in check:
             note += ("; step shown minus frame_steps' step (frames: count): "
                      + ", ".join(f"{k}: {n}" for k, n in check["step_offsets"].items()))
+            offsets = row.get("figures", {}).get("frame_offsets")
+            if offsets:
+                note += ("; the reader's measured offset (videos: count): "
+                         + ", ".join(f"{k}: {n}" for k, n in offsets.items()))
         lines.append(f"* {name}: {note}")
     for name, row in rows.items():
         errors = row.get("figures", {}).get("errors") or []

@@ -1,5 +1,6 @@
 """benchmarks/reader_robustness.py: each variant's copy decodes with its codec, size and frame count; resampled
-frames show the steps stated (ffmpeg's ``fps=10`` 3 steps early, ``fps=10:round=down`` the renderer's steps)."""
+frames show the steps stated (ffmpeg's ``fps=10`` 3 steps early, ``fps=5`` 6, ``fps=10:round=down`` the renderer's
+steps)."""
 
 from __future__ import annotations
 
@@ -49,7 +50,8 @@ def test_every_variant_but_the_original_is_copied(rr: ModuleType, copies: dict[s
     assert set(copies) == set(rr.VARIANTS) - {"original"}
 
 
-@pytest.mark.parametrize("name", ["h264-crf28", "mpeg4-q8", "scale-128", "scale-512", "fps-10", "fps-10-down"])
+@pytest.mark.parametrize("name", ["h264-crf28", "mpeg4-q8", "scale-128", "scale-512", "fps-10", "fps-10-down",
+                                  "fps-5"])
 def test_a_copy_decodes_with_its_codec_size_and_frames(rr: ModuleType, tiny: Path, copies: dict[str, Path],
                                                        name: str) -> None:
     variant = rr.VARIANTS[name]
@@ -60,7 +62,7 @@ def test_a_copy_decodes_with_its_codec_size_and_frames(rr: ModuleType, tiny: Pat
     found = rr.describe(copy)
     assert {k: found[k] for k in want} == want
     assert found["fps"] == pytest.approx(variant.fps or 60)
-    assert want["frames"] == (10 if variant.fps else STEPS)
+    assert want["frames"] == (STEPS * variant.fps // 60 if variant.fps else STEPS)
     frames = decode(copy)  # the reader's decoder
     assert frames.shape == (want["frames"], want["height"], want["width"], 3)
 
@@ -75,6 +77,8 @@ def test_ffmpeg_fps_filter_shows_steps_3_early_and_round_down_the_renderers(
     down = rr.step_offsets(tiny, copies["fps-10-down"], 10)
     assert len(near) >= 8 and set(near) == {-3}
     assert len(down) >= 8 and set(down) == {0}
+    five = rr.step_offsets(tiny, copies["fps-5"], 5)  # 6 early: beyond a search of 5 frames either way
+    assert len(five) >= 4 and set(five) == {-6}
     # craft-dsl render --fps 10 (lossy H.264) is the round=down copy, up to its encoding
     rendered = decode(write_video(simulate(1, seed=0, steps=STEPS), tmp_path / "r10.mp4", fps=10)).astype(np.int16)
     gap_down = np.abs(decode(copies["fps-10-down"]).astype(np.int16) - rendered).mean()
@@ -127,12 +131,14 @@ def test_two_videos_in_two_variants(rr: ModuleType, users_dataset: Path, tmp_pat
     assert "reason" not in rows["original"] and rows["original"]["figures"]["not_read"] == 0
     assert "figures" in rows["fps-10-down"] or "reason" in rows["fps-10-down"]  # a failed variant is reported
     assert rows["fps-10-down"]["check"]["step_offsets"].keys() <= {"0"}
+    if "figures" in rows["fps-10-down"]:  # the renderer's steps: read at them
+        assert rows["fps-10-down"]["figures"]["frame_offsets"] == {"0": 2}
     printed = capsys.readouterr().out
     assert "| original |" in printed and "| fps-10-down |" in printed
 
 
 @pytest.mark.skipif(os.environ.get("CRAFT_DSL_SLOW") != "1",
-                    reason="reads 2 videos in all 7 variants (about 90 s on 2 busy cores): set CRAFT_DSL_SLOW=1")
+                    reason="reads 2 videos in all 8 variants (about 100 s on 2 busy cores): set CRAFT_DSL_SLOW=1")
 def test_the_whole_script_on_two_videos(rr: ModuleType, users_dataset: Path, tmp_path: Path,
                                         capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "figures.json"
