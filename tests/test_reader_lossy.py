@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from craft_dsl.reader.detect import Blob, blobs, grid_labels, grid_rims
-from craft_dsl.reader.track import classify_shape, measure_frames, track, verify_shape
+from craft_dsl.reader.track import classify_shape, compared_residuals, measure_frames, track, verify_shape
 from craft_dsl.render import frames as render_frames
 from craft_dsl.render.raster import static_layer
 from craft_dsl.world import WorldSpec, assign_uids, make_dynamic, make_static
@@ -94,3 +94,22 @@ def test_two_bodies_touching_make_one_blob_that_neither_track_takes() -> None:
             found += [_blob(k, 90.0, 100.0, 150.0), _blob(k, 110.0, 100.0, 150.0)]
     for obj in track(found, frames, counts={1: 2}):
         assert obj.seen() == [*range(10), *range(20, frames)]
+
+
+def test_shapes_are_compared_on_the_frames_every_drawing_could_be_fitted_in() -> None:
+    inf = np.inf
+    # the cube fits the first frame best; the triangle's larger window left the picture in the frames where the
+    # cube, cut by compression, fits badly: over its own frames the cube's median would lose (30 against 20)
+    per_frame = {("cube", "small"): np.array([10.0, 50.0, inf]), ("triangle", "small"): np.array([20.0, inf, inf]),
+                 ("circle", "large"): np.array([inf, inf, inf])}
+    residual = compared_residuals(per_frame)
+    assert residual == {("cube", "small"): 10.0, ("triangle", "small"): 20.0, ("circle", "large"): inf}
+    # no frame that holds them all: each over its own frames
+    apart = compared_residuals({("cube", "small"): np.array([10.0, inf, 30.0]),
+                                ("triangle", "small"): np.array([inf, 20.0, inf])})
+    assert apart == {("cube", "small"): 20.0, ("triangle", "small"): 20.0}
+    # another quantile of the common frames, and a candidate with no frames at all
+    low = compared_residuals({("cube", "small"): np.array([10.0, 20.0, 30.0, 40.0, 90.0]),
+                              ("triangle", "small"): np.array([12.0, 13.0, 14.0, 15.0, inf]),
+                              ("circle", "small"): np.zeros(0)}, quantile=0.0)
+    assert low == {("cube", "small"): 10.0, ("triangle", "small"): 12.0, ("circle", "small"): inf}

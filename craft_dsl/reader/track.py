@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -616,20 +616,39 @@ SPARSE_SHAPE_SAMPLES = 24
 SPARSE_SHAPE_QUANTILE = 0.1
 
 
-def shape_residual(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, shape: str, size: str,
-                   samples: int = 8, quantile: float = 0.5) -> float:
-    """Median (or another ``quantile``) render-and-compare residual (grey levels) of ``obj`` drawn as (shape, size)
-    in a few complete frames: the wrong shape leaves its corners or its missing corners in the residual."""
+def shape_residuals(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, shape: str, size: str,
+                    samples: int = 8) -> np.ndarray:
+    """Render-and-compare residuals (grey levels) of ``obj`` drawn as (shape, size) in up to ``samples`` of its
+    complete frames, spread over them (the same frames for every shape): the wrong shape leaves its corners or its
+    missing corners in the residual. Infinite where that drawing could not be fitted (its window leaves the
+    picture)."""
     done = [k for k, m in sorted(obj.measurements.items()) if m.complete]
     if not done:
-        return math.inf
+        return np.zeros(0)
     pick = [done[int(i)] for i in np.unique(np.linspace(0, len(done) - 1, min(samples, len(done))).round())]
-    _x, _y, _a, rms = refine(frames, background, shape, size, obj.color, pick,
-                             *_measured_poses(obj, pick, shape, size), blur=source_blur(obj.source_size))
-    finite = rms[np.isfinite(rms)]
+    return refine(frames, background, shape, size, obj.color, pick, *_measured_poses(obj, pick, shape, size),
+                  blur=source_blur(obj.source_size))[3]
+
+
+def _quantile(residuals: np.ndarray, quantile: float) -> float:
+    finite = residuals[np.isfinite(residuals)]
     if not finite.size:
         return math.inf
     return float(np.median(finite)) if quantile == 0.5 else float(np.quantile(finite, quantile))
+
+
+def compared_residuals(per_frame: Mapping[tuple[str, str], np.ndarray], quantile: float = 0.5
+                       ) -> dict[tuple[str, str], float]:
+    """Each candidate's residual (the ``quantile`` of its per-frame residuals), taken over the frames where every
+    candidate that could be fitted anywhere was fitted: a larger drawing's window leaves the picture in more frames,
+    and a median over other frames compares other moments (a body cut by compression in some of them). Where no frame
+    holds them all, each over its own."""
+    fitted = [v for v in per_frame.values() if v.size and np.any(np.isfinite(v))]
+    common = np.logical_and.reduce([np.isfinite(v) for v in fitted]) if fitted else np.zeros(0, dtype=bool)
+    if not np.any(common):
+        return {key: _quantile(v, quantile) for key, v in per_frame.items()}
+    return {key: _quantile(v[common], quantile) if v.size and np.any(np.isfinite(v)) else math.inf
+            for key, v in per_frame.items()}
 
 
 def verify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, sparse: bool = False) -> None:
@@ -650,7 +669,9 @@ def verify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray,
         seen = [k for k in obj.seen() if not obj.blobs[k].touches_edge]  # type: ignore[union-attr]
         measure_frames(obj, frames, background, [seen[int(i)] for i in np.unique(np.linspace(
             0, len(seen) - 1, min(SPARSE_SHAPE_SAMPLES, len(seen))).round())] if seen else [])
-    residual = {key: shape_residual(obj, frames, background, *key, *pick) for key in candidates}
+    samples, quantile = pick
+    residual = compared_residuals({key: shape_residuals(obj, frames, background, *key, samples) for key in candidates},
+                                  quantile)
     best = min(residual.values())
     if not math.isfinite(best):
         return
