@@ -16,7 +16,7 @@ from craft_dsl.reader.perceive import Perception, perceive_frames, perceive_vide
 from craft_dsl.reader.timing import offsets_allowed
 from craft_dsl.reader.video import decode, steps_shown
 from craft_dsl.render import frame_steps, write_video
-from craft_dsl.render.raster import world_to_pixel
+from tests.reader_helpers import tracks_px
 
 STEPS = 240  # 4 s: 240 frames at 60 fps, 40 at 10 fps
 
@@ -43,16 +43,8 @@ def _resampled(frames_60: np.ndarray, fps: int, offset: int) -> np.ndarray:
 
 
 def _mean_px_apart(low: Perception, high: Perception) -> float:
-    def tracks(p: Perception) -> dict[tuple[str, str, str], np.ndarray]:
-        traj = p.reconstruction.simulation.trajectory
-        out = {}
-        for b in p.reconstruction.simulation.world_spec.bodies:
-            if b.dynamic:
-                pos = traj.positions[1:, traj.column(b.uid)]
-                out[(b.shape, b.color, b.size)] = np.stack(world_to_pixel(pos[:, 0], pos[:, 1]), axis=1)
-        return out
-
-    ours, theirs = tracks(low), tracks(high)
+    """The largest of the bodies' mean distances (pixels) between the two readings' runs."""
+    ours, theirs = tracks_px(low), tracks_px(high)
     assert ours.keys() == theirs.keys()
     return max(float(np.mean(np.hypot(*(ours[k] - theirs[k]).T))) for k in ours)
 

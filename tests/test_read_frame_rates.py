@@ -24,7 +24,7 @@ from craft_dsl.reader.video import (
     steps_shown,
 )
 from craft_dsl.render import frame_steps, write_frames, write_video
-from craft_dsl.render.raster import world_to_pixel
+from tests.reader_helpers import tracks_px
 
 STEPS = 240  # 4 s: 240 frames at 60 fps, 40 at 10 fps, 20 at 5 fps
 
@@ -154,22 +154,12 @@ def test_an_override_that_does_not_fit_the_frames_is_refused() -> None:
 # -- reading -------------------------------------------------------------------------------------------------
 
 
-def _track_px(p: Perception) -> dict[tuple[str, str, str], np.ndarray]:
-    traj = p.reconstruction.simulation.trajectory
-    out = {}
-    for b in p.reconstruction.simulation.world_spec.bodies:
-        if b.dynamic:
-            pos = traj.positions[1:, traj.column(b.uid)]
-            out[(b.shape, b.color, b.size)] = np.stack(world_to_pixel(pos[:, 0], pos[:, 1]), axis=1)
-    return out
-
-
 def _same_reading(low: Perception, high: Perception, sim: LiveSimulation, tolerance_px: float) -> None:
     assert low.layout.scene == high.layout.scene == 1
     assert sorted(low.reconstruction.attributes) == sorted(high.reconstruction.attributes)
     truth = {(b.shape, b.color, b.size) for b in sim.world_spec.bodies if b.dynamic}
     assert set(low.reconstruction.attributes) == truth
-    ours, theirs = _track_px(low), _track_px(high)
+    ours, theirs = tracks_px(low), tracks_px(high)
     n = min(len(v) for v in ours.values())
     for key, track in ours.items():
         assert float(np.mean(np.hypot(*(track[:n] - theirs[key][:n]).T))) < tolerance_px, key

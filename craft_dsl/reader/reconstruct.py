@@ -569,18 +569,37 @@ class _Attempt:
     score: float
 
 
-def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
-             slots: Sequence[int], attributes: Sequence[Attributes], frames: int, steps: int, eng: PhysicsEngine,
-             measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None, refits_allowed: int,
-             rows: np.ndarray) -> _Attempt:
+def first_start_fit(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
+                    slots: Sequence[int], attributes: Sequence[Attributes], frames: int, eng: PhysicsEngine,
+                    measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None, rows: np.ndarray
+                    ) -> tuple[StartFit, int]:
+    """The start fit of a video's first frames (``rows``: the step each shows) and their number: the objects in
+    their slots, measured exactly in those frames by ``measure`` (as their slot's shape and size)."""
     window = start_frames(rows)
     if measure is not None:
         for obj, s in zip(objects, slots):
             if s >= 0:
                 measure(obj, fit_frames(window), attributes[s][0], attributes[s][2])
     observed = {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}
-    fit = StartFit(model, static_values, attributes, observed, eng, rows=rows)
-    longer = first_window(observed, rows)
+    return StartFit(model, static_values, attributes, observed, eng, rows=rows), window
+
+
+def fit_window(fit: StartFit, window: int, sparse: bool) -> tuple[np.ndarray, dict[str, float], float]:
+    """``fit.fit`` on the first ``window`` frames from the start the first sightings give. ``sparse`` (frames
+    further apart than a step): the start guess is further off and the window's few frames leave the fit local
+    minima, so the shortest window is fitted first, its draws the guess of the whole window."""
+    start = _initial_units(fit)
+    if sparse and window > START_MIN_FRAMES:
+        start = fit.fit(START_MIN_FRAMES, start)[0]
+    return fit.fit(window, start)
+
+
+def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Sequence[TrackedObject],
+             slots: Sequence[int], attributes: Sequence[Attributes], frames: int, steps: int, eng: PhysicsEngine,
+             measure: Callable[[TrackedObject, Sequence[int], str, str], None] | None, refits_allowed: int,
+             rows: np.ndarray) -> _Attempt:
+    fit, window = first_start_fit(model, static_values, objects, slots, attributes, frames, eng, measure, rows)
+    longer = first_window(fit.observed, rows)
     if longer > window:  # a body first seen later: the first fit sees it for a while
         window = longer
         if measure is not None:
@@ -588,13 +607,8 @@ def _attempt(model: LayoutModel, static_values: Mapping[str, float], objects: Se
                 if s >= 0:
                     measure(obj, fit_frames(window), attributes[s][0], attributes[s][2])
                     fit.observed[s] = _observations(obj, frames)
-    start = _initial_units(fit)
     sparse = bool(rows.size and rows[-1] > rows.size)
-    if sparse and window > START_MIN_FRAMES:
-        # frames further apart than a step: the start guess is further off and the window's few frames leave the
-        # fit local minima; the shortest window first, its draws the guess of the whole window
-        start = fit.fit(START_MIN_FRAMES, start)[0]
-    units, choice, _rms = fit.fit(window, start)
+    units, choice, _rms = fit_window(fit, window, sparse)
     refits = 0
     while True:
         world = fit.world(units, choice)

@@ -26,16 +26,7 @@ import numpy as np
 from ..physics.engine import PhysicsEngine
 from ..physics.live import get_engine
 from .layout_model import LayoutModel
-from .reconstruct import (
-    START_MIN_FRAMES,
-    StartFit,
-    _initial_units,
-    _observations,
-    assign_slots,
-    fit_frames,
-    slot_attributes,
-    start_frames,
-)
+from .reconstruct import assign_slots, first_start_fit, fit_window, slot_attributes
 from .track import TrackedObject
 
 #: An earlier offset is kept only when its start fit is nearer the frames than the renderer's timing by more than
@@ -71,21 +62,12 @@ def frame_offset(model: LayoutModel, static_values: Mapping[str, float], objects
         return FrameOffset(0, {})
     eng = get_engine(engine)
     residuals: dict[int, float] = {}
-    for offset in candidates:
+    for offset in candidates:  # the reconstruction's first start fit, at each offset
         shown = rows + offset
         slots = assign_slots(model, static_values, objects, shown)
         attributes = slot_attributes(model, objects, slots)
-        window = start_frames(shown)
-        if measure is not None:
-            for obj, s in zip(objects, slots):
-                if s >= 0:
-                    measure(obj, fit_frames(window), attributes[s][0], attributes[s][2])
-        observed = {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}
-        fit = StartFit(model, static_values, attributes, observed, eng, rows=shown)
-        start = _initial_units(fit)
-        if window > START_MIN_FRAMES:  # as the reconstruction's first fit of sparse frames: the shortest window first
-            start = fit.fit(START_MIN_FRAMES, start)[0]
-        residuals[offset] = fit.fit(window, start)[2]
+        fit, window = first_start_fit(model, static_values, objects, slots, attributes, frames, eng, measure, shown)
+        residuals[offset] = fit_window(fit, window, sparse=True)[2]
     best = min(candidates, key=lambda d: (residuals[d], -d))
     if best != 0 and residuals[best] < residuals[0] - OFFSET_MARGIN_PX:
         return FrameOffset(best, residuals)
