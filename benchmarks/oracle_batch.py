@@ -35,6 +35,7 @@ import argparse
 import json
 import os
 import random
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -201,12 +202,12 @@ def main() -> int:
                 run_batch([p], s, form=form) for p, s in zip(programs, work_sims)], fresh)
     times = best_times(paths, args.repeat)
     base = n / times["original engine (node lists)"]
-    targets = {"nodes": 3.0, "prefix": 2.0, "postfix": 2.0, "text": 2.0}
     for label, t in times.items():
         form = label.split()[2].rstrip(",") if label.endswith("one batch") else ""
-        row(label, n, t, base, targets.get(form))
+        figure = f"fresh {form}, one batch"
+        row(label, n, t, base, target_of(figure) if form else None)
         if form:
-            figures[f"fresh {form}, one batch"] = n / t / base
+            figures[figure] = n / t / base
 
     # -- sampled, one simulation ---------------------------------------------------------------------------------
     print(f"\nsampled prefix tokens, one simulation: {args.samples} programs per batch; (a) samples of all the "
@@ -311,8 +312,7 @@ def over_hash_seeds(args: argparse.Namespace) -> int:
     summary: dict[str, dict[str, float | None]] = {}
     for key in runs[0]:
         values = sorted(r[key] for r in runs)
-        median = values[len(values) // 2] if len(values) % 2 else (values[len(values) // 2 - 1]
-                                                                    + values[len(values) // 2]) / 2
+        median = statistics.median(values)
         target = target_of(key)
         verdict = "" if target is None else f">= {target:g}x: " + (
             "met by every seed" if values[0] >= target else "met at the median" if median >= target else "not met")

@@ -131,9 +131,10 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     if engines is None:  # the original CRAFT renderer's look: its physics (Box2D) first
         engines = reader_engines(layout.aliased)
     steps = int(rows[-1])  # the run the frames were taken from ends where the rule's last frame does
-    if frame_offset is None and frame_steps is None:
-        frame_offset = measure_offset(model, layout.values, objects, len(frames), rows, engines[0], measure).steps
-    rows = rows + (frame_offset or 0)
+    if frame_offset is None:  # measured unless frame_steps gave every frame's step
+        frame_offset = 0 if frame_steps is not None else measure_offset(
+            model, layout.values, objects, len(frames), rows, engines[0], measure).steps
+    rows = rows + frame_offset
     rec = reconstruct_best(model, layout.values, objects, len(frames), steps=steps, engines=engines,
                            measure=measure, rows=rows)
     times["reconstruct"] = time.perf_counter() - t
@@ -141,8 +142,8 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     at_end = {} if trajectory is None else scene_moving_at_end(
         {slot: obj.blobs for obj, slot in zip(objects, rec.slots) if slot >= 0},
         {s: run_end(trajectory, slot_uid(s, n_slots)) for s in rec.slots if s >= 0}, n_slots, rows)
-    perceived = to_perceived(rec, objects, layout, rate, at_end, frame_offset or 0)
-    return Perception(perceived, layout, objects, rec, times, rate, rows, frame_offset or 0)
+    perceived = to_perceived(rec, objects, layout, rate, at_end, frame_offset)
+    return Perception(perceived, layout, objects, rec, times, rate, rows, frame_offset)
 
 
 def detect_objects(frames: np.ndarray, background: np.ndarray, count: int | None, rows: np.ndarray,

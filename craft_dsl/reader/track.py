@@ -643,12 +643,11 @@ def compared_residuals(per_frame: Mapping[tuple[str, str], np.ndarray], quantile
     candidate that could be fitted anywhere was fitted: a larger drawing's window leaves the picture in more frames,
     and a median over other frames compares other moments (a body cut by compression in some of them). Where no frame
     holds them all, each over its own."""
-    fitted = [v for v in per_frame.values() if v.size and np.any(np.isfinite(v))]
-    common = np.logical_and.reduce([np.isfinite(v) for v in fitted]) if fitted else np.zeros(0, dtype=bool)
-    if not np.any(common):
+    fitted = {key for key, v in per_frame.items() if np.any(np.isfinite(v))}
+    common = np.logical_and.reduce([np.isfinite(per_frame[key]) for key in fitted]) if fitted else None
+    if common is None or not np.any(common):
         return {key: _quantile(v, quantile) for key, v in per_frame.items()}
-    return {key: _quantile(v[common], quantile) if v.size and np.any(np.isfinite(v)) else math.inf
-            for key, v in per_frame.items()}
+    return {key: _quantile(v[common], quantile) if key in fitted else math.inf for key, v in per_frame.items()}
 
 
 def verify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, sparse: bool = False) -> None:
