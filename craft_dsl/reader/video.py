@@ -1,10 +1,10 @@
 """Decoding a CRAFT video into RGB frames, uint8 [T, H, W, 3].
 
 Two decoders, both shipping their own FFmpeg and both core dependencies: PyAV (in-process) and imageio-ffmpeg
-(an ``ffmpeg`` subprocess writing raw frames to a pipe). Measured on the same
-600-frame MPEG-1 videos (``benchmarks/reader.py --decoders``), PyAV is the faster on an idle machine and uses less
-CPU in all, so it is used when installed; on a busy machine the pipe, whose decoder runs in its own process, can be
-faster (docs/reader.md). Both decode single-threaded so that several videos can be read in parallel processes.
+(an ``ffmpeg`` subprocess writing raw frames to a pipe). PyAV is used when installed: converting each video's frames
+with one scaler on the calling thread (:func:`rgb_converter`), it decodes a 600-frame MPEG-1 video about six times
+as fast as the pipe (``benchmarks/reader.py --decoders``, docs/reader.md). Both decode single-threaded so that
+several videos can be read in parallel processes.
 
 Frames are taken by position, and the frame rate says which physics step each shows: at ``fps`` frames per
 second frame ``k`` (0-based) shows the state after ``round((k + 1) * 60 / fps)`` steps, the renderer's rule
@@ -31,6 +31,7 @@ import numbers
 import os
 import re
 import subprocess
+from collections.abc import Callable
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -74,9 +75,14 @@ def _decode_pyav(path: Path, size: int | None = None) -> tuple[np.ndarray, int]:
         stream.thread_type = "NONE"
         _check_square(path, stream.width, stream.height)
         scale: dict[str, Any] = {}
-        if size is not None and (stream.width, stream.height) != (size, size):
-            scale = {"width": size, "height": size, "interpolation": "AREA" if stream.width > size else "BILINEAR"}
-        frames = [f.to_ndarray(format="rgb24", **scale) for f in container.decode(stream)]
+        side = int(stream.width)
+        if size is not None and side != size:
+            scale = {"width": size, "height": size, "interpolation": "AREA" if side > size else "BILINEAR"}
+            side = size
+        frames = _FrameBuffer(_expected_frames(stream), side)
+        to_rgb = rgb_converter(**scale)
+        for f in container.decode(stream):
+            frames.append(to_rgb(f))
         source = int(stream.width)
     except ReaderError:
         raise
@@ -84,9 +90,71 @@ def _decode_pyav(path: Path, size: int | None = None) -> tuple[np.ndarray, int]:
         raise ReaderError(f"{path}: cannot be decoded ({err})") from None
     finally:
         container.close()
-    if not frames:
+    if not frames.count:
         raise ReaderError(f"{path}: the video has no frames")
-    return np.stack(frames), source
+    return frames.array(), source
+
+
+def rgb_converter(width: int | None = None, height: int | None = None, interpolation: str | None = None
+                  ) -> Callable[[Any], np.ndarray]:
+    """A function from a decoded PyAV frame to its RGB array uint8 [H, W, 3] (rescaled to ``width`` x ``height``
+    where given), for all the frames of a video: one scaler, run on the calling thread. (``frame.to_ndarray(format=
+    "rgb24")`` makes a new scaler for every frame, and recent PyAV versions (18 here) start one thread per CPU for
+    each: that was most of a decode's time, and on a machine whose cores were all busy, three times its CPU time.
+    The pixels are the same.)"""
+    from av.video.reformatter import VideoReformatter
+
+    reformatter = VideoReformatter()
+    options: dict[str, Any] = {"format": "rgb24", "threads": 1}
+    options.update((k, v) for k, v in (("width", width), ("height", height), ("interpolation", interpolation))
+                   if v is not None)
+
+    def convert(frame: Any) -> np.ndarray:
+        nonlocal options
+        try:
+            rgb = reformatter.reformat(frame, **options)
+        except TypeError:
+            if "threads" not in options:
+                raise
+            options = {k: v for k, v in options.items() if k != "threads"}  # an older PyAV: no such option
+            rgb = reformatter.reformat(frame, **options)
+        return rgb.to_ndarray()
+
+    return convert
+
+
+#: Frames a CRAFT video holds (10 s at 60 fps): the first guess of the decoder's buffer where the file does not say.
+_CRAFT_FRAMES = 600
+
+
+def _expected_frames(stream: Any) -> int:
+    """How many frames the stream says it holds (a raw MPEG stream says none: a CRAFT video's count)."""
+    stated = int(stream.frames or 0)
+    return stated if stated > 0 else _CRAFT_FRAMES
+
+
+class _FrameBuffer:
+    """Decoded frames written into one array as they come, grown by half when full: a video's frames are one
+    allocation, not one per frame and a stacked copy (half the peak memory, and one copy fewer)."""
+
+    def __init__(self, capacity: int, side: int) -> None:
+        self.data = np.empty((max(capacity, 1), side, side, 3), dtype=np.uint8)
+        self.count = 0
+
+    def append(self, frame: np.ndarray) -> None:
+        if self.count == len(self.data):
+            grown = np.empty((len(self.data) + len(self.data) // 2 + 1, *self.data.shape[1:]), dtype=np.uint8)
+            grown[:self.count] = self.data
+            self.data = grown
+        self.data[self.count] = frame
+        self.count += 1
+
+    def array(self) -> np.ndarray:
+        """The frames decoded, [count, side, side, 3] (a copy only where the buffer was over-sized by more than
+        a few frames, so that a short video does not hold a long one's memory)."""
+        if len(self.data) - self.count > 8:
+            return self.data[:self.count].copy()
+        return self.data[:self.count]
 
 
 def _probe_size(path: Path, exe: str) -> tuple[int, int]:

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import CraftError
+from ..reader.video import rgb_converter
 from ..render import frame_steps
 
 Size = int | tuple[int, int] | None
@@ -69,13 +70,8 @@ def decode_video(path: str | os.PathLike[str], fps: float | None = None, size: S
         keep = list(range(len(decoded)))
     else:
         keep = [int(r) - 1 for r in frame_steps(len(decoded), fps, int(round(rate)))]
-    out = []
-    for i in keep:
-        frame = decoded[i]
-        if hw is not None:
-            frame = frame.reformat(width=hw[1], height=hw[0], format="rgb24", interpolation="AREA")
-        out.append(frame.to_ndarray(format="rgb24"))
-    return np.stack(out)
+    to_rgb = rgb_converter() if hw is None else rgb_converter(width=hw[1], height=hw[0], interpolation="AREA")
+    return np.stack([to_rgb(decoded[i]) for i in keep])
 
 
 def decode_image(path: str | os.PathLike[str], size: Size = None) -> np.ndarray:
