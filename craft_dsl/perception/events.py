@@ -27,9 +27,12 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pymunk
+from pymunk._chipmunk import ffi as _ffi
+from pymunk._chipmunk import lib as _lib
 
 from ..physics.engine import ContactLog, Interval, PairKey, SensorKey, coalesce, pair_key
 from ..vocabulary import COLLISION, COLLISION_MAX_STEPS, ENTER_BASKET, TOUCH_END, TOUCH_START
@@ -67,7 +70,11 @@ class RowStates:
 
 
 class GeometryProbe:
-    """The bodies of a world as pymunk shapes that can be placed anywhere and asked what they touch."""
+    """The bodies of a world as pymunk shapes that can be placed anywhere and asked what they touch.
+
+    Placing and querying call Chipmunk directly (the calls pymunk's ``body.position``, ``body.angle``,
+    ``reindex_shapes_for_body`` and ``shape_query`` make, without building a Python object for every hit and its
+    contact points): deriving a video's events places the bodies at every row and queries every shape there."""
 
     def __init__(self, world: WorldSpec, tolerance: float = CONTACT_TOLERANCE) -> None:
         self.world = world
@@ -99,6 +106,27 @@ class GeometryProbe:
                 sensor.filter = _FILTER_SENSOR
                 self.space.add(sensor)
                 self.sensor_owner[sensor] = spec.uid
+        # the Chipmunk handles of the same objects, and each shape's tag and sensor owner by its address
+        self._space = self.space._space
+        self._placed = [(uid, self.bodies[uid]._body) for uid in self.dynamic]
+        self._queries = {uid: [(s._shape, self.tags[s]) for s in shapes] for uid, shapes in self.contact_shapes.items()}
+        self._plain = {uid: [s._shape for s in shapes] for uid, shapes in self.plain_shapes.items()}
+        self._tag_at = {_address(s._shape): tag for s, tag in self.tags.items()}
+        self._owner_at = {_address(s._shape): uid for s, uid in self.sensor_owner.items()}
+        self._hits: list[tuple[int, float]] = []  # (address, deepest contact) of each shape the last query met
+        self._collect = _ffi.callback("void(cpShape *, cpContactPointSet *, void *)", self._hit)
+
+    def _hit(self, shape: Any, points: Any, _data: Any) -> None:
+        depth = 0.0
+        for i in range(points.count):
+            depth = max(depth, abs(points.points[i].distance))
+        self._hits.append((int(_ffi.cast("uintptr_t", shape)), depth))
+
+    def _query(self, shape: Any) -> list[tuple[int, float]]:
+        """(address, deepest contact, metres) of every shape overlapping ``shape`` (a Chipmunk handle)."""
+        self._hits = []
+        _lib.cpSpaceShapeQuery(self._space, shape, self._collect, _ffi.NULL)
+        return self._hits
 
     @staticmethod
     def _shapes(body: pymunk.Body, spec: BodySpec, inflate: float, flt: pymunk.ShapeFilter) -> Iterator[pymunk.Shape]:
@@ -119,22 +147,22 @@ class GeometryProbe:
 
     def place(self, positions: np.ndarray, angles: np.ndarray, columns: Mapping[int, int]) -> None:
         """Move every dynamic body to row values ``positions`` [N, 2], ``angles`` [N] (``columns``: uid -> col)."""
-        space = self.space
-        for uid in self.dynamic:
+        set_position, set_angle, reindex, space = (_lib.cpBodySetPosition, _lib.cpBodySetAngle,
+                                                   _lib.cpSpaceReindexShapesForBody, self._space)
+        for uid, body in self._placed:
             i = columns[uid]
-            body = self.bodies[uid]
-            body.position = (float(positions[i, 0]), float(positions[i, 1]))
-            body.angle = float(angles[i])
-            space.reindex_shapes_for_body(body)
+            set_position(body, (float(positions[i, 0]), float(positions[i, 1])))
+            set_angle(body, float(angles[i]))
+            reindex(space, body)
 
     def touching(self, uids: Sequence[int] | None = None) -> set[PairKey]:
         """Every touching shape pair involving a dynamic body (or one of ``uids``), in the current placement."""
         out: set[PairKey] = set()
+        tag_at = self._tag_at
         for uid in self.dynamic if uids is None else uids:
-            for shape in self.contact_shapes[uid]:
-                ua, pa = self.tags[shape]
-                for hit in self.space.shape_query(shape):
-                    ub, pb = self.tags[hit.shape]
+            for shape, (ua, pa) in self._queries[uid]:
+                for address, _depth in self._query(shape):
+                    ub, pb = tag_at[address]
                     if ub != ua:
                         out.add(pair_key(ua, pa, ub, pb))
         return out
@@ -143,25 +171,29 @@ class GeometryProbe:
         """How deep (metres, 0 where apart or touching) each body of ``uids`` overlaps any other body, in the
         current placement (the shapes as the probe's tolerance inflates them)."""
         depth = np.zeros(len(uids))
+        tag_at = self._tag_at
         for i, uid in enumerate(uids):
-            for shape in self.contact_shapes[uid]:
-                for hit in self.space.shape_query(shape):
-                    if self.tags[hit.shape][0] == uid:
-                        continue
-                    for point in hit.contact_point_set.points:  # a penetration (pymunk signs it by the pair's order)
-                        depth[i] = max(depth[i], abs(point.distance))
+            for shape, _tag in self._queries[uid]:
+                for address, deepest in self._query(shape):  # a penetration (pymunk signs it by the pair's order)
+                    if tag_at[address][0] != uid:
+                        depth[i] = max(depth[i], deepest)
         return depth
 
     def in_sensor(self) -> set[SensorKey]:
         """Every (basket, body) overlap in the current placement."""
         out: set[SensorKey] = set()
+        owner_at = self._owner_at
         for uid in self.dynamic:
-            for shape in self.plain_shapes[uid]:
-                for hit in self.space.shape_query(shape):
-                    owner = self.sensor_owner.get(hit.shape)
+            for shape in self._plain[uid]:
+                for address, _depth in self._query(shape):
+                    owner = owner_at.get(address)
                     if owner is not None:
                         out.add((owner, uid))
         return out
+
+
+def _address(handle: Any) -> int:
+    return int(_ffi.cast("uintptr_t", handle))
 
 
 def _free_flight(states: RowStates, row: int, gravity: tuple[float, float]) -> tuple[np.ndarray, np.ndarray]:
