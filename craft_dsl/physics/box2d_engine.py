@@ -50,7 +50,7 @@ with warnings.catch_warnings():  # SWIG's builtin types trigger import-time Depr
     warnings.simplefilter("ignore", DeprecationWarning)
     import Box2D
 
-from ..world import DENSITY, FRICTION, RESTITUTION, BodySpec, Segment, WorldSpec
+from ..world import DENSITY, FRICTION, RESTITUTION, BodySpec, Geometry, Segment, WorldSpec
 from .engine import PairKey, RawRun, ReplayPlan
 from .flicker import add_flicker
 from .recording import BodyState, ContactRecorder, FrameIntervalRecorder, StateRecorder
@@ -119,6 +119,51 @@ def _chains(segments: tuple[Segment, ...]) -> list[list[tuple[float, float]]]:
     return chains
 
 
+def _body_def(kind: str) -> Any:
+    if kind == "dynamic":
+        return Box2D.b2BodyDef(type=Box2D.b2_dynamicBody, bullet=False, allowSleep=True, linearDamping=0.0,
+                               angularDamping=0.0)
+    return Box2D.b2BodyDef(type=Box2D.b2_kinematicBody if kind == "kinematic" else Box2D.b2_staticBody)
+
+
+#: One body definition of each kind, its position and angle set for each body made (Box2D copies a definition
+#: into the body it makes; a fresh definition from keyword arguments cost as much as the rest of a short run).
+_BODY_DEFS: dict[str, Any] = {kind: _body_def(kind) for kind in ("static", "kinematic", "dynamic")}
+
+
+class _FixtureDef:
+    """The one fixture definition of every collision shape (the world's density, friction and restitution), its
+    shape set for each fixture made (Box2D copies definition and shape into the fixture)."""
+
+    def __init__(self) -> None:
+        self.defn = Box2D.b2FixtureDef(density=DENSITY, friction=FRICTION, restitution=RESTITUTION)
+
+    def place(self, shape: Any) -> Any:
+        self.defn.shape = shape
+        return self.defn
+
+
+_FIXTURE_DEF = _FixtureDef()
+#: The Box2D shapes of each geometry (Box2D computes a polygon's centroid and normals when it is made), for up to
+#: _MAX_SHAPES geometries (a reader's fitted statics each have their own).
+_SHAPES: dict[Geometry, tuple[Any, ...]] = {}
+_MAX_SHAPES = 4096
+
+
+def _shapes(geo: Geometry) -> tuple[Any, ...]:
+    """The collision shapes of ``geo`` in fixture order: polygons, the circle, the edge chains (made once)."""
+    found = _SHAPES.get(geo)
+    if found is None:
+        shapes: list[Any] = [Box2D.b2PolygonShape(vertices=list(poly)) for poly in geo.polygons]
+        if geo.circle_radius is not None:
+            shapes.append(Box2D.b2CircleShape(radius=geo.circle_radius))
+        shapes.extend(Box2D.b2ChainShape(vertices_chain=chain) for chain in _chains(geo.segments))
+        if len(_SHAPES) >= _MAX_SHAPES:
+            _SHAPES.clear()
+        found = _SHAPES[geo] = tuple(shapes)
+    return found
+
+
 class Box2DEngine:
     """Physics adapter on pybox2d (Box2D 2.3). Parameters are the original's solver settings."""
 
@@ -158,21 +203,15 @@ class Box2DEngine:
         return b2w, bodies
 
     def _make_body(self, b2w: Any, spec: BodySpec, kinematic: bool) -> Any:
-        if not spec.dynamic:
-            body = b2w.CreateStaticBody(position=spec.position, angle=spec.angle)
-        elif kinematic:
-            body = b2w.CreateKinematicBody(position=spec.position, angle=spec.angle)
-        else:
-            body = b2w.CreateDynamicBody(position=spec.position, angle=spec.angle, bullet=False,
-                                         allowSleep=True, linearDamping=0.0, angularDamping=0.0)
+        kind = "static" if not spec.dynamic else "kinematic" if kinematic else "dynamic"
+        defn = _BODY_DEFS[kind]
+        defn.position = spec.position
+        defn.angle = spec.angle
+        body = b2w.CreateBody(defn)
         geo = spec.geometry
-        shapes: list[Any] = [Box2D.b2PolygonShape(vertices=list(poly)) for poly in geo.polygons]
-        if geo.circle_radius is not None:
-            shapes.append(Box2D.b2CircleShape(radius=geo.circle_radius))
-        shapes.extend(Box2D.b2ChainShape(vertices_chain=chain) for chain in _chains(geo.segments))
         part = 0
-        for shape in shapes:
-            fixture = body.CreateFixture(shape=shape, density=DENSITY, friction=FRICTION, restitution=RESTITUTION)
+        for shape in _shapes(geo):
+            fixture = body.CreateFixture(_FIXTURE_DEF.place(shape))
             fixture.userData = (spec.uid, part, False)
             part += shape.childCount
         if geo.sensor is not None:
