@@ -15,6 +15,7 @@ from craft_dsl.reader.track import (
     pair_twins,
     purity,
     relink_merges,
+    riding_share,
     select_objects,
     track,
 )
@@ -134,6 +135,54 @@ def test_a_softened_small_body_outranks_the_gray_ring_of_another_body_s_eye() ->
     body.blobs = body.blobs + [None] * 20
     frames = np.concatenate([picture, right[180:]])
     assert select_objects([ring, body], 1, frames) == [body]
+
+
+def _moving_track(color: str, frames: int, area: float, x0: float, seen: range | None = None) -> TrackedObject:
+    """A track moving one pixel a frame along row 100 from column ``x0``, seen in the frames ``seen`` (all)."""
+    c = COLORS.index(color)
+    shown = range(frames) if seen is None else seen
+    return TrackedObject(c, [Blob(k, c, area, x0 + k, 100.0, False) if k in shown else None for k in range(frames)])
+
+
+def test_a_track_inside_a_larger_body_of_another_colour_rides_on_it() -> None:
+    """The gray of a body's blurred eyes, inside that body's blob, rides on it; a gray body beside another does not
+    (bodies do not overlap), nor does the larger body on the smaller track at its centre, nor a track of the same
+    colour."""
+    host = _moving_track("red", 100, 200.0, 50.0)  # a disk of radius 8 px
+    eyes = _moving_track("gray", 100, 40.0, 53.0)  # 3 px from the host's centre
+    beside = _moving_track("gray", 100, 40.0, 62.0)  # 12 px away: touching, not inside
+    half = _moving_track("gray", 100, 40.0, 53.0, range(50))  # rides while seen, then gone
+    twin = _moving_track("red", 100, 40.0, 53.0)  # the host's own colour: a piece of it, not a rider
+    assert riding_share(eyes, [host, eyes]) == 1.0
+    assert riding_share(beside, [host, beside]) == 0.0
+    assert riding_share(half, [host, half]) == 1.0
+    assert riding_share(host, [host, eyes]) == 0.0
+    assert riding_share(twin, [host, twin]) == 0.0
+    host.blobs[:25] = [None] * 25  # the host leaves the picture for a quarter of the frames
+    assert riding_share(eyes, [host, eyes]) == 0.75
+
+
+def test_a_faded_small_body_outranks_gray_riding_on_other_bodies_eyes() -> None:
+    """A compressed video: a small blue body faded to 20 px² seen in 300 frames; a gray track of 40 px² seen in 200
+    frames, three quarters of them on a red body's eyes. Frames times area alone keep the gray track."""
+    frames = 300
+    picture = np.full((frames, 400, 400, 3), 255, dtype=np.uint8)
+    blue, red = PALETTE[COLORS.index("blue")], PALETTE[COLORS.index("red")]
+    gray = PALETTE[COLORS.index("gray")]
+    for k in range(frames):
+        picture[k, 147:153, 200 + k // 2 - 3:200 + k // 2 + 3] = blue
+        picture[k, 92:108, 42 + k:58 + k] = red
+        picture[k, 97:103, 50 + k:56 + k] = gray
+    body = TrackedObject(COLORS.index("blue"), [Blob(k, COLORS.index("blue"), 20.0, 200.0 + k // 2, 150.0, False)
+                                                for k in range(frames)])
+    host = _moving_track("red", frames, 200.0, 50.0)
+    rider = _moving_track("gray", frames, 40.0, 53.0, range(150))
+    for k in range(250, frames):  # a quarter of its frames away from any body
+        rider.blobs[k] = Blob(k, COLORS.index("gray"), 40.0, 300.0, 150.0, False)
+    picture[250:, 147:153, 297:303] = gray
+    assert purity(rider, picture) == 1.0 and purity(body, picture) == 1.0
+    assert riding_share(rider, [host, rider, body]) == 0.75
+    assert select_objects([host, rider, body], 2, picture) == [host, body]
 
 
 def test_two_bodies_of_one_colour_at_rest_together_are_not_measured_as_one() -> None:

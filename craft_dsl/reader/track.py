@@ -511,9 +511,30 @@ def purity(obj: TrackedObject, frames: np.ndarray) -> float:
     return IMPURE_WEIGHT * math.exp(-((distance - radius) / radius) ** 2)
 
 
+def riding_share(obj: TrackedObject, objects: Sequence[TrackedObject]) -> float:
+    """The share of a track's frames in which its centre lies inside a larger body of another colour (within the
+    radius of a disk of that body's blob area): a body cannot be there (bodies do not overlap), but the colours of
+    another body's eyes and edges, blurred together by compression, can ride along with it. On a H.264 copy (crf 28)
+    a small blue circle faded to 20 px² lost its place to a gray track of 40 px² that hopped along the other bodies'
+    eyes for 231 frames."""
+    hosts = [o.blobs for o in objects if o.color != obj.color]
+    seen = riding = 0
+    for k, b in enumerate(obj.blobs):
+        if b is None:
+            continue
+        seen += 1
+        for blobs in hosts:
+            h = blobs[k]
+            if h is not None and h.area > b.area and (h.x - b.x) ** 2 + (h.y - b.y) ** 2 < h.area / math.pi:
+                riding += 1
+                break
+    return riding / seen if seen else 0.0
+
+
 def select_objects(objects: list[TrackedObject], count: int | None, frames: np.ndarray) -> list[TrackedObject]:
     """The ``count`` most substantial bodies (all when None): by the evidence of each track (frames seen times median
-    blob area), weighed down where the track is not pure (:func:`purity`)."""
+    blob area), weighed down where the track is not pure (:func:`purity`) and by the share of frames it rides on
+    another body (:func:`riding_share`)."""
     if count is None or len(objects) <= count:
         return objects
 
@@ -521,7 +542,7 @@ def select_objects(objects: list[TrackedObject], count: int | None, frames: np.n
         areas = [b.area for b in o.blobs if b is not None]
         if not areas:
             return 0.0
-        return len(areas) * float(np.median(areas)) * purity(o, frames)
+        return len(areas) * float(np.median(areas)) * purity(o, frames) * (1.0 - riding_share(o, objects))
 
     ranked = sorted(objects, key=evidence, reverse=True)
     keep = set(map(id, ranked[:count]))
