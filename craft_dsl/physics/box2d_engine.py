@@ -131,19 +131,9 @@ def _body_def(kind: str) -> Any:
 _BODY_DEFS: dict[str, Any] = {kind: _body_def(kind) for kind in ("static", "kinematic", "dynamic")}
 
 
-class _FixtureDef:
-    """The one fixture definition of every collision shape (the world's density, friction and restitution), its
-    shape set for each fixture made (Box2D copies definition and shape into the fixture)."""
-
-    def __init__(self) -> None:
-        self.defn = Box2D.b2FixtureDef(density=DENSITY, friction=FRICTION, restitution=RESTITUTION)
-
-    def place(self, shape: Any) -> Any:
-        self.defn.shape = shape
-        return self.defn
-
-
-_FIXTURE_DEF = _FixtureDef()
+#: The one fixture definition of every collision shape (the world's density, friction and restitution), its shape
+#: set for each fixture made (Box2D copies definition and shape into the fixture).
+_FIXTURE_DEF = Box2D.b2FixtureDef(density=DENSITY, friction=FRICTION, restitution=RESTITUTION)
 #: The Box2D shapes of each geometry (Box2D computes a polygon's centroid and normals when it is made), for up to
 #: _MAX_SHAPES geometries (a reader's fitted statics each have their own).
 _SHAPES: dict[Geometry, tuple[Any, ...]] = {}
@@ -211,7 +201,8 @@ class Box2DEngine:
         geo = spec.geometry
         part = 0
         for shape in _shapes(geo):
-            fixture = body.CreateFixture(_FIXTURE_DEF.place(shape))
+            _FIXTURE_DEF.shape = shape
+            fixture = body.CreateFixture(_FIXTURE_DEF)
             fixture.userData = (spec.uid, part, False)
             part += shape.childCount
         if geo.sensor is not None:

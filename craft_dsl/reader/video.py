@@ -75,15 +75,14 @@ def _decode_pyav(path: Path, size: int | None = None) -> tuple[np.ndarray, int]:
         stream.thread_type = "NONE"
         _check_square(path, stream.width, stream.height)
         scale: dict[str, Any] = {}
-        side = int(stream.width)
-        if size is not None and side != size:
-            scale = {"width": size, "height": size, "interpolation": "AREA" if side > size else "BILINEAR"}
+        source = side = int(stream.width)
+        if size is not None and source != size:
+            scale = {"width": size, "height": size, "interpolation": "AREA" if source > size else "BILINEAR"}
             side = size
         frames = _FrameBuffer(_expected_frames(stream), side)
         to_rgb = rgb_converter(**scale)
         for f in container.decode(stream):
             frames.append(to_rgb(f))
-        source = int(stream.width)
     except ReaderError:
         raise
     except Exception as err:  # noqa: BLE001
