@@ -12,9 +12,12 @@ from craft_dsl.reader.track import (
     TrackedObject,
     classify_shape,
     count_per_color,
+    drop_riding,
+    drop_strays,
     pair_twins,
     purity,
     relink_merges,
+    riding_frames,
     riding_share,
     select_objects,
     track,
@@ -183,6 +186,60 @@ def test_a_faded_small_body_outranks_gray_riding_on_other_bodies_eyes() -> None:
     assert purity(rider, picture) == 1.0 and purity(body, picture) == 1.0
     assert riding_share(rider, [host, rider, body]) == 0.75
     assert select_objects([host, rider, body], 2, picture) == [host, body]
+
+
+def test_a_body_read_in_two_colours_does_not_ride_on_itself() -> None:
+    """A small brown body faded by compression reads partly gray: two blobs of similar areas at one place, neither
+    the other's host."""
+    brown = _moving_track("brown", 50, 16.0, 80.0)
+    gray = _moving_track("gray", 50, 24.0, 80.5)
+    assert riding_frames(brown, [brown, gray]) == [] and riding_frames(gray, [brown, gray]) == []
+
+
+def _path(frames: int, x0: float = 40.0, y: float = 100.0, step: float = 2.0) -> list[Blob | None]:
+    """A body moving ``step`` pixels a frame along a row."""
+    return [_blob(k, x0 + step * k, y, 50.0) for k in range(frames)]
+
+
+def test_a_piece_that_seeds_a_track_before_its_body_is_seen_is_dropped() -> None:
+    """H.264 cuts a piece off a large triangle in frames 1-2 while a cube's sliver at the top edge is not seen yet;
+    the piece starts the cube's track, which then jumps 170 px to the cube."""
+    blobs: list[Blob | None] = [None, _blob(1, 214.5, 92.1, 56.0), _blob(2, 213.5, 90.9, 40.0)]
+    blobs += [_blob(k, 45.5, 0.5 + 0.1 * k, 40.0) for k in range(3, 60)]
+    kept = drop_strays(blobs)
+    assert kept[:3] == [None, None, None] and kept[3:] == blobs[3:]
+
+
+def test_a_speck_between_two_runs_of_a_body_is_dropped_and_the_runs_kept() -> None:
+    blobs = _path(80)
+    blobs[40] = _blob(40, 230.0, 20.0, 20.0)  # a speck of the colour elsewhere while the body is not seen alone
+    kept = drop_strays(blobs)
+    assert kept[40] is None and [k for k, b in enumerate(kept) if b is None] == [40]
+
+
+def test_a_track_that_moves_as_a_body_can_is_left_whole() -> None:
+    assert drop_strays(_path(80, step=3.4)) == _path(80, step=3.4)  # the fastest body of 100 simulated scenes
+    hidden = _path(80)
+    hidden[20:60] = [None] * 40  # hidden for 40 frames, seen again 80 px on
+    assert drop_strays(hidden) == hidden
+    # at 10 fps a frame is 6 steps: 30 px between frames is a body's speed, not a jump
+    sparse = _path(60, step=30.0)
+    assert drop_strays(sparse, rows=[6 * (k + 1) for k in range(60)]) == sparse
+    # at 60 fps the same track jumps in every frame: all its runs are short, and none is dropped for another
+    assert drop_strays(sparse) == sparse
+
+
+def test_a_body_s_track_loses_the_specks_it_picked_up_on_a_larger_body_before_it_entered() -> None:
+    """H.264, crf 28: before a small green body falls into the picture, its track holds green specks on a large brown
+    body's rim; placed there, the green body's start (its first sighting) is wrong."""
+    frames = 120
+    host = _moving_track("brown", frames, 220.0, 50.0)
+    green = COLORS.index("green")
+    specks = [Blob(k, green, 40.0, 52.0 + k, 101.0, False) for k in range(50)]
+    body = [Blob(k, green, 24.0, 180.0, 2.0 * (k - 60), False) for k in range(60, frames)]
+    track_ = TrackedObject(green, [*specks, *[None] * 10, *body])
+    drop_riding([host, track_])
+    assert track_.seen() == list(range(60, frames)) and host.seen() == list(range(frames))
 
 
 def test_two_bodies_of_one_colour_at_rest_together_are_not_measured_as_one() -> None:

@@ -39,6 +39,8 @@ from .timing import offsets_allowed
 from .track import (
     TrackedObject,
     classify_shape,
+    drop_riding,
+    drop_strays,
     measure_frames,
     merge_colour_splits,
     pair_twins,
@@ -155,8 +157,11 @@ def detect_objects(frames: np.ndarray, background: np.ndarray, count: int | None
     found = blobs(grid_labels(frames, background, soft_source(drawn_at)), grid_rims(background))
     tracks = merge_colour_splits(track(found, len(frames), steps=rows), rows)
     for obj in tracks:
+        obj.blobs = drop_strays(obj.blobs, rows)
         obj.source_size = drawn_at
-    return select_objects(tracks, count, frames)
+    chosen = select_objects(tracks, count, frames)
+    drop_riding(chosen, rows)
+    return chosen
 
 
 def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: StaticFit,

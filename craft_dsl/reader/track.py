@@ -10,9 +10,13 @@ nearest-neighbour assignment from their last positions, with the blob's area as 
 bodies of one colour (its area about their sum) is given to neither, and that frame is left out for both: the
 physics fills it in. Two such bodies that bounce off each other come out of the merge on the wrong tracks by
 position alone: :func:`relink_merges` keeps or swaps the tracks' parts after each merge, whichever lets each track
-be one (shape, size). In a video of fewer than 60 frames per second (``steps``: the step each frame shows) a body
-moves up to 12 times further between frames: its last position is carried forward by its velocity over the steps
-between (from its last two sightings) before the assignment; at 60 fps the last position is used as it is.
+be one (shape, size). A track that jumps further than a body moves in the steps between holds sightings that are not
+its body's (a piece of another body of its colour, a speck of the colour a lossy video shows while the body is
+hidden): its short runs between such jumps are dropped (:func:`drop_strays`), as are its sightings inside a larger
+body of another colour (:func:`drop_riding`). In a video of fewer than 60 frames per second (``steps``: the step
+each frame shows) a body moves up to 12 times further between frames: its last position is carried forward by its
+velocity over the steps between (from its last two sightings) before the assignment; at 60 fps the last position is
+used as it is.
 
 Shape and size come from the full-resolution measurement (:mod:`craft_dsl.reader.measure`) of the frames where the
 body is complete: the median area, the largest radius over the square root of the area, and the normalised second
@@ -325,6 +329,40 @@ def track(blobs: Sequence[Blob], frames: int, counts: dict[int, int] | None = No
     return objects
 
 
+#: A body moves at most this many pixels (256-px frame) per physics step (the fastest of 100 simulated scenes: 3.4)...
+MAX_STEP_PX = 6.0
+#: ... and its blob's centre may shift by this many pixels more (a body partly hidden, or seen with a piece of another).
+JUMP_MARGIN_PX = 20.0
+#: Sightings between two jumps no body makes, fewer than this many, are not the body's: a piece of another body of its
+#: colour, or a speck of the colour a lossy video shows while the body itself is hidden.
+STRAY_SIGHTINGS = MIN_FRAMES
+
+
+def drop_strays(blobs: list[Blob | None], rows: Sequence[int] | np.ndarray | None = None) -> list[Blob | None]:
+    """The track ``blobs`` without its stray sightings: split where it jumps further than a body moves in the steps
+    between (:data:`MAX_STEP_PX`, :data:`JUMP_MARGIN_PX`), the runs of fewer than :data:`STRAY_SIGHTINGS` sightings
+    are dropped, as long as a longer one is kept; repeated until no short run is left (dropping a speck between two
+    runs of one body joins them). ``rows``: the step each frame shows (default ``k + 1``)."""
+    out = list(blobs)
+    while True:
+        seen = [k for k, b in enumerate(out) if b is not None]
+        runs: list[list[int]] = [seen[:1]] if seen else []
+        for a, k in zip(seen, seen[1:]):
+            ba, bk = out[a], out[k]
+            assert ba is not None and bk is not None
+            steps = (rows[k] - rows[a]) if rows is not None else k - a
+            if math.hypot(bk.x - ba.x, bk.y - ba.y) > JUMP_MARGIN_PX + MAX_STEP_PX * steps:
+                runs.append([k])
+            else:
+                runs[-1].append(k)
+        short = [run for run in runs if len(run) < STRAY_SIGHTINGS]
+        if not short or len(short) == len(runs):
+            return out
+        for run in short:
+            for k in run:
+                out[k] = None
+
+
 def _position(obj: TrackedObject, k: int) -> tuple[float, float]:
     b = obj.blobs[k]
     assert b is not None
@@ -511,24 +549,49 @@ def purity(obj: TrackedObject, frames: np.ndarray) -> float:
     return IMPURE_WEIGHT * math.exp(-((distance - radius) / radius) ** 2)
 
 
-def riding_share(obj: TrackedObject, objects: Sequence[TrackedObject]) -> float:
-    """The share of a track's frames in which its centre lies inside a larger body of another colour (within the
-    radius of a disk of that body's blob area): a body cannot be there (bodies do not overlap), but the colours of
-    another body's eyes and edges, blurred together by compression, can ride along with it. On a H.264 copy (crf 28)
-    a small blue circle faded to 20 px² lost its place to a gray track of 40 px² that hopped along the other bodies'
-    eyes for 231 frames."""
+#: A blob rides on another colour's blob at least this many times its area (a faded body read in two colours in
+#: one frame shows two blobs of similar areas at one place, which is neither's host).
+RIDING_HOST_RATIO = 2.0
+
+
+def riding_frames(obj: TrackedObject, objects: Sequence[TrackedObject]) -> list[int]:
+    """The frames in which a track's centre lies inside a body of another colour :data:`RIDING_HOST_RATIO` times its
+    area or more (within the radius of a disk of that body's blob area): a body cannot be there (bodies do not
+    overlap), but the colours of another body's eyes and edges, blurred together by compression, can ride along
+    with it."""
     hosts = [o.blobs for o in objects if o.color != obj.color]
-    seen = riding = 0
+    out = []
     for k, b in enumerate(obj.blobs):
         if b is None:
             continue
-        seen += 1
         for blobs in hosts:
             h = blobs[k]
-            if h is not None and h.area > b.area and (h.x - b.x) ** 2 + (h.y - b.y) ** 2 < h.area / math.pi:
-                riding += 1
+            if h is not None and h.area >= RIDING_HOST_RATIO * b.area and (h.x - b.x) ** 2 + (h.y - b.y) ** 2 < (
+                    h.area / math.pi):
+                out.append(k)
                 break
-    return riding / seen if seen else 0.0
+    return out
+
+
+def riding_share(obj: TrackedObject, objects: Sequence[TrackedObject]) -> float:
+    """The share of a track's frames that ride on another body (:func:`riding_frames`). On a H.264 copy (crf 28) a
+    small blue circle faded to 20 px² lost its place to a gray track of 40 px² that hopped along the other bodies'
+    eyes for 231 frames."""
+    seen = sum(1 for b in obj.blobs if b is not None)
+    return len(riding_frames(obj, objects)) / seen if seen else 0.0
+
+
+def drop_riding(objects: Sequence[TrackedObject], rows: Sequence[int] | np.ndarray | None = None) -> None:
+    """Take from each track the sightings that ride on another of ``objects`` (:func:`riding_frames`), then its
+    stray runs (:func:`drop_strays`; ``rows``: the step each frame shows): before a small body enters the picture,
+    its colour's track may have picked up specks of that colour on a larger body's edges (H.264 at crf 28: a green
+    track on a brown body's rim for 46 frames, placing the green body's start there)."""
+    riding = [riding_frames(obj, objects) for obj in objects]  # all found before any track changes
+    for obj, frames in zip(objects, riding):
+        if frames:
+            for k in frames:
+                obj.blobs[k] = None
+            obj.blobs = drop_strays(obj.blobs, rows)
 
 
 def select_objects(objects: list[TrackedObject], count: int | None, frames: np.ndarray) -> list[TrackedObject]:
