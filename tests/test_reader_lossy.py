@@ -4,12 +4,32 @@ bodies, and a large triangle whose cut tip makes its features read small is read
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+import pytest
 
 from craft_dsl.reader.detect import Blob, blobs, grid_labels, grid_rims
-from craft_dsl.reader.track import classify_shape, compared_residuals, measure_frames, track, verify_shape
+from craft_dsl.reader.measure import Measurement
+from craft_dsl.reader.track import (
+    ERODED_ABOVE,
+    SHAPE_FEATURES,
+    TABLE_EROSION,
+    TrackedObject,
+    _log_likelihoods,
+    classify_shape,
+    compared_residuals,
+    compression_depth,
+    eroded,
+    erosion,
+    measure_frames,
+    perimeter,
+    track,
+    verify_shape,
+)
 from craft_dsl.render import frames as render_frames
 from craft_dsl.render.raster import static_layer
+from craft_dsl.vocabulary import COLORS
 from craft_dsl.world import WorldSpec, assign_uids, make_dynamic, make_static
 from tests.synthetic_scene import simulation_from_rows
 
@@ -113,3 +133,49 @@ def test_shapes_are_compared_on_the_frames_every_drawing_could_be_fitted_in() ->
                               ("triangle", "small"): np.array([12.0, 13.0, 14.0, 15.0, inf]),
                               ("circle", "small"): np.zeros(0)}, quantile=0.0)
     assert low == {("cube", "small"): 10.0, ("triangle", "small"): 12.0, ("circle", "small"): inf}
+
+
+def test_perimeters_of_the_three_shapes() -> None:
+    assert perimeter("circle", math.pi * 4.0) == pytest.approx(4.0 * math.pi)
+    assert perimeter("cube", 49.0) == pytest.approx(28.0)
+    assert perimeter("triangle", math.sqrt(3.0) / 4.0 * 36.0) == pytest.approx(18.0)
+
+
+def test_an_eroded_table_loses_its_perimeter_times_the_depth_in_area_only() -> None:
+    table = eroded(SHAPE_FEATURES, 0.2)
+    for key, (centre, spread) in SHAPE_FEATURES.items():
+        assert table[key][0][0] == pytest.approx(centre[0] - 0.2 * perimeter(key[0], centre[0]))
+        assert table[key][0][1:] == centre[1:] and table[key][1] == spread
+    assert eroded(SHAPE_FEATURES, 0.0) == SHAPE_FEATURES
+
+
+def _measured(colour: str, key: tuple[str, str], areas: list[float]) -> TrackedObject:
+    obj = TrackedObject(COLORS.index(colour), [None] * len(areas), shape_size={key: 1.0})
+    obj.measurements = {k: Measurement(a, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, None, None, True) for k, a in enumerate(areas)}
+    return obj
+
+
+def test_erosion_is_measured_on_the_large_bodies_read_surely() -> None:
+    circle_area = SHAPE_FEATURES[("circle", "large")][0][0]
+    shortfall = 0.16 * perimeter("circle", circle_area)  # an H.264 copy at crf 28: 0.16 px
+    large = _measured("green", ("circle", "large"), [circle_area - shortfall] * 5)
+    small = _measured("yellow", ("cube", "small"), [40.0] * 5)  # small bodies do not measure it
+    unsure = _measured("red", ("cube", "large"), [300.0] * 5)
+    unsure.shape_size = {("cube", "large"): 0.6, ("triangle", "large"): 0.4}
+    assert erosion([large, small, unsure]) == pytest.approx(0.16)
+    assert compression_depth([large, small, unsure]) == pytest.approx(0.16 - TABLE_EROSION)
+    assert erosion([small, unsure]) is None and compression_depth([small, unsure]) == 0.0
+    as_drawn = _measured("green", ("circle", "large"), [circle_area - ERODED_ABOVE * perimeter("circle", circle_area)
+                                                        + 1.0] * 5)
+    assert compression_depth([as_drawn]) == 0.0  # within what the tables' own videos show
+
+
+def test_a_small_cube_faded_by_h264_reads_as_a_cube_against_the_eroded_table() -> None:
+    """A small cube measuring 48 px² (its drawing 56.5 less 0.16 px of its outline and some noise) in a video whose
+    large bodies measure 0.16 px eroded, as on H.264 copies at crf 28: a small circle's area on the tables as
+    calibrated, a cube's on the tables eroded by the difference."""
+    features = np.array([[48.0, 0.66, 0.200]] * 12)
+    plain = _log_likelihoods(features)
+    worn = _log_likelihoods(features, eroded(SHAPE_FEATURES, 0.16 - TABLE_EROSION))
+    assert plain[("circle", "small")] > plain[("cube", "small")]
+    assert worn[("cube", "small")] > worn[("circle", "small")]

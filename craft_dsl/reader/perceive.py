@@ -39,6 +39,7 @@ from .timing import offsets_allowed
 from .track import (
     TrackedObject,
     classify_shape,
+    compression_depth,
     drop_riding,
     drop_strays,
     measure_frames,
@@ -121,6 +122,10 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     relink_merges(objects, frames, background)
     for obj in objects:
         classify_shape(obj, frames, background)
+    depth = compression_depth(objects)  # a lossy video's bodies measure smaller than the tables' (H.264, MPEG-4)
+    for obj in objects:
+        if depth:
+            classify_shape(obj, frames, background, depth=depth)
         measure_frames(obj, frames, background, fit_frames(start_frames(rows)))
         verify_shape(obj, frames, background, sparse=bool(rows.size and rows[-1] > rows.size))
     times["detect"] = time.perf_counter() - t
