@@ -93,6 +93,18 @@ def test_a_blob_cut_off_by_the_border_is_not_looked_at() -> None:
     assert seen_moving_at_end(_blobs(xs, np.full(FRAMES, 30.0)), ROWS) is True
 
 
+def test_a_body_cut_by_the_border_whose_blob_stays_put_is_at_rest() -> None:
+    """A large circle at rest against the picture's right edge (H.264 copy: its run rolled it on at 1.4 m/s): its cut
+    blob does not move in the last second, so neither does the body; one whose cut blob moves is left to the run."""
+    still = _blobs(np.full(FRAMES, 244.0), np.full(FRAMES, 192.0), edge_from=0)
+    assert seen_moving_at_end(still, ROWS) is False
+    k = np.arange(FRAMES)
+    leaving = _blobs(200.0 + 0.1 * k, np.full(FRAMES, 192.0), edge_from=0)
+    assert seen_moving_at_end(leaving, ROWS) is None
+    arriving = _blobs(np.full(FRAMES, 244.0), np.full(FRAMES, 192.0), edge_from=FRAMES - 30)
+    assert seen_moving_at_end(arriving, ROWS) is False  # touching the border only in the last frames (a pixel wider)
+
+
 def test_lower_frame_rates_are_read_in_steps() -> None:
     """At 10 fps (a frame every 6 steps) the windows are the same steps."""
     rows = np.arange(6, FRAMES + 1, 6)

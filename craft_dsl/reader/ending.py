@@ -55,7 +55,16 @@ VISIBLE_SPEED = 0.23
 def seen_moving_at_end(blobs: Sequence[Blob | None], rows: np.ndarray) -> bool | None:
     """True (moving), False (at rest) or None (the frames do not say) for a body with ``blobs`` (one per frame,
     None where it is not seen alone) in frames showing steps ``rows``. A blob that touches the frame's border counts
-    as not seen."""
+    as not seen for motion (it moves with the cut, not with the body), but a body cut by the border whose blob stays
+    put is at rest (a body moving in or out of the picture changes its cut)."""
+    seen = _seen_moving_at_end(blobs, rows, cut=False)
+    if seen is None and _seen_moving_at_end(blobs, rows, cut=True) is False:
+        return False
+    return seen
+
+
+def _seen_moving_at_end(blobs: Sequence[Blob | None], rows: np.ndarray, cut: bool) -> bool | None:
+    """:func:`seen_moving_at_end`, counting blobs that touch the frame's border as seen where ``cut``."""
     rows = np.asarray(rows)
     if len(blobs) != rows.size or not rows.size:
         return None
@@ -63,7 +72,7 @@ def seen_moving_at_end(blobs: Sequence[Blob | None], rows: np.ndarray) -> bool |
     first = int(np.searchsorted(rows, last_step - 2 * MOVING_STEPS - RESTING_STEPS, side="right"))
     # a blob cut off by the frame border moves with the cut, not with the body: such frames are not looked at
     seen = [(int(rows[k]), b.x, b.y) for k, b in enumerate(blobs[first:], first)
-            if b is not None and not b.touches_edge]
+            if b is not None and (cut or not b.touches_edge)]
     if not seen or seen[-1][0] != last_step:  # not seen in the last frame
         return None
     steps = np.array([s for s, _x, _y in seen])
