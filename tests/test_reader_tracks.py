@@ -203,7 +203,7 @@ def _path(frames: int, x0: float = 40.0, y: float = 100.0, step: float = 2.0) ->
 
 def test_a_piece_that_seeds_a_track_before_its_body_is_seen_is_dropped() -> None:
     """H.264 cuts a piece off a large triangle in frames 1-2 while a cube's sliver at the top edge is not seen yet;
-    the piece starts the cube's track, which then jumps 170 px to the cube."""
+    the piece starts the cube's track, which then jumps 190 px to the cube."""
     blobs: list[Blob | None] = [None, _blob(1, 214.5, 92.1, 56.0), _blob(2, 213.5, 90.9, 40.0)]
     blobs += [_blob(k, 45.5, 0.5 + 0.1 * k, 40.0) for k in range(3, 60)]
     kept = drop_strays(blobs)

@@ -834,8 +834,9 @@ def compression_depth(objects: Sequence[TrackedObject]) -> float:
 
 def classify_shape(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, samples: int = 16,
                    depth: float = 0.0) -> None:
-    """Probabilities of each (shape, size) from up to ``samples`` complete frames (see the module docstring); the
-    bodies' outlines moved inwards by ``depth`` pixels (:func:`erosion`)."""
+    """Probabilities of each (shape, size) from up to ``samples`` complete frames (see the module docstring), against
+    the tables eroded by ``depth`` pixels (:func:`compression_depth`: how much further the video's compression moved
+    its bodies' outlines inwards than the tables' own videos did)."""
     seen = [k for k in obj.seen() if not obj.blobs[k].touches_edge]  # type: ignore[union-attr]
     if not seen:
         seen = obj.seen()
