@@ -501,13 +501,25 @@ def relink_merges(objects: list[TrackedObject], frames: np.ndarray, background: 
 #: A track whose median blob is at least this large (pixels) is a large body: its centre holds the eyes, so its core
 #: colour says nothing about its purity.
 LARGE_BLOB_AREA = 100.0
-#: A small track is pure when the median colour of its core (3x3 pixels at the blob's centroid) is within this RGB
-#: distance of its palette colour; pieces of compression colour riding along another body (a dark body's rim read as
-#: gray, a ring around it) have the other body's colour, or a blend, at their centre.
-PURE_RADIUS = 35.0
+#: A small track is pure when the luma and chroma of its core (the median colour of 3x3 pixels at the blob's centroid)
+#: are near those of its palette colour (:func:`colour_distance`): pieces of compression colour riding along another
+#: body (a dark body's rim read as gray, a ring around it) have the other body's colour, or a blend, at their centre.
+#: Lossy codecs keep a small body's luma (H.264 at crf 28: within 3.4 of its colour's for 95% of 612 small bodies) and
+#: shrink its chroma toward gray, keeping its hue (to 42-80% of the colour's: a small brown circle's core is 39 RGB
+#: units from brown, its luma 2.6 off); a gray body has no chroma (95%: 2.2), a piece of a green body read gray has
+#: the green's (10-20). This is the luma difference that counts as one radius.
+LUMA_RADIUS = 20.0
+#: The chroma difference that counts as one radius for a chromatic colour, measured from the palette chroma shrunk by
+#: the factor (in [:data:`CHROMA_KEPT_MIN`, 1]) that brings it nearest.
+CHROMA_RADIUS = 20.0
+#: The chroma that counts as one radius for gray, which has none to shrink: a small gray body next to a green one
+#: picks up a little of its chroma (up to 4.5 on MPEG-4 copies), a piece of the green body read gray much more.
+GRAY_CHROMA_RADIUS = 6.0
+#: The least share of its colour's chroma that a compressed small body keeps (measured: 0.42).
+CHROMA_KEPT_MIN = 0.3
 #: The evidence of a track that is not pure is weighed down by this factor, and further the further its core colour
-#: is from its palette colour (see :func:`purity`): a small body softened by rescaling (core 37 from its colour) keeps
-#: it, the ring that a softened eye's pupil leaves in gray (core 95 from gray, the body's colour) does not.
+#: is from its palette colour (see :func:`purity`): a track just out of reach keeps a tenth of its evidence, the ring
+#: that a softened eye's pupil leaves in gray (luma 64 above gray's, a green's chroma) none to speak of.
 IMPURE_WEIGHT = 0.1
 #: Frames sampled for a track's core colour.
 CORE_SAMPLES = 40
@@ -531,9 +543,34 @@ def core_colour(obj: TrackedObject, frames: np.ndarray) -> np.ndarray | None:
     return np.median(np.array(values, dtype=np.float64), axis=0)
 
 
+def luma_chroma(rgb: np.ndarray) -> tuple[float, np.ndarray]:
+    """The luma Y and chroma (Cb, Cr) of one RGB colour (ITU-R BT.601, full range; float)."""
+    r, g, b = (float(v) for v in rgb)
+    return (0.299 * r + 0.587 * g + 0.114 * b,
+            np.array([-0.168736 * r - 0.331264 * g + 0.5 * b, 0.5 * r - 0.418688 * g - 0.081312 * b]))
+
+
+def colour_distance(core: np.ndarray, color: int) -> float:
+    """How far a small body's core colour is from palette colour ``color``, in radii (below 1: pure): its luma
+    difference over :data:`LUMA_RADIUS` and the distance of its chroma from the palette chroma shrunk by the best
+    factor in [:data:`CHROMA_KEPT_MIN`, 1] over :data:`CHROMA_RADIUS` (for gray: its chroma over
+    :data:`GRAY_CHROMA_RADIUS`), combined as a Euclidean norm."""
+    luma, chroma = luma_chroma(core)
+    palette_luma, palette_chroma = luma_chroma(PALETTE[color])
+    norm = float(palette_chroma @ palette_chroma)
+    if color == GRAY or norm == 0.0:
+        off, radius = float(np.linalg.norm(chroma)), GRAY_CHROMA_RADIUS
+    else:
+        kept = min(max(float(chroma @ palette_chroma) / norm, CHROMA_KEPT_MIN), 1.0)
+        off, radius = float(np.linalg.norm(chroma - kept * palette_chroma)), CHROMA_RADIUS
+    return math.hypot((luma - palette_luma) / LUMA_RADIUS, off / radius)
+
+
 def purity(obj: TrackedObject, frames: np.ndarray) -> float:
-    """1 where ``obj`` looks like a body of its colour (see :data:`PURE_RADIUS`), else :data:`IMPURE_WEIGHT` times
-    exp(-((d - PURE_RADIUS) / PURE_RADIUS)^2) for a core colour at distance d from its palette colour."""
+    """1 where ``obj`` looks like a body of its colour, else :data:`IMPURE_WEIGHT` times exp(-(d - 1)^2) for a core
+    colour d radii from its palette colour (:func:`colour_distance`; for a video drawn small and rescaled, whose
+    bodies' cores are their colours mixed with white and black, the distance from the nearest such mix over
+    :data:`SOFT_RESIDUAL`)."""
     areas = [b.area for b in obj.blobs if b is not None]
     if not areas or float(np.median(areas)) >= LARGE_BLOB_AREA:
         return 1.0
@@ -541,12 +578,12 @@ def purity(obj: TrackedObject, frames: np.ndarray) -> float:
     if core is None:
         return IMPURE_WEIGHT
     if soft_source(obj.source_size):  # a soft body's core is its colour mixed with white and black (its eyes)
-        distance, radius = float(mix_residual(core[None], obj.color)[1][0]), SOFT_RESIDUAL
+        distance = float(mix_residual(core[None], obj.color)[1][0]) / SOFT_RESIDUAL
     else:
-        distance, radius = float(np.linalg.norm(core - PALETTE[obj.color])), PURE_RADIUS
-    if distance < radius:
+        distance = colour_distance(core, obj.color)
+    if distance < 1.0:
         return 1.0
-    return IMPURE_WEIGHT * math.exp(-((distance - radius) / radius) ** 2)
+    return IMPURE_WEIGHT * math.exp(-((distance - 1.0) ** 2))
 
 
 #: A blob rides on another colour's blob at least this many times its area (a faded body read in two colours in
