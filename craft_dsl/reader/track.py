@@ -614,7 +614,7 @@ def riding_share(obj: TrackedObject, objects: Sequence[TrackedObject]) -> float:
     """The share of a track's frames that ride on another body (:func:`riding_frames`). On a H.264 copy (crf 28) a
     small blue circle faded to 20 px² lost its place to a gray track of 40 px² that hopped along the other bodies'
     eyes for 231 frames."""
-    seen = sum(1 for b in obj.blobs if b is not None)
+    seen = len(obj.seen())
     return len(riding_frames(obj, objects)) / seen if seen else 0.0
 
 
