@@ -153,6 +153,23 @@ def test_a_band_of_another_colour_along_the_outline_is_the_bodys_own_bleeding(sh
     assert clean.area <= m.area <= clean.area + band.sum()  # the band counts (its pixels nearly wholly red)
 
 
+@pytest.mark.parametrize("smear", [False, True])
+def test_a_smear_of_a_large_body_s_colour_along_a_static_does_not_set_its_radius(smear: bool) -> None:
+    # a lossy copy: a large red circle resting on a black bar, its colour smeared 9 px along the bar's top edge
+    background = np.full((48, 48, 3), 255, dtype=np.uint8)
+    background[35:39] = 0
+    window = background.copy()
+    rows, cols = np.mgrid[0:48, 0:48] + 0.5
+    red = COLORS.index("red")
+    window[(cols - 24.0) ** 2 + (rows - 24.5) ** 2 <= 10.3 ** 2] = PALETTE[red]
+    if smear:
+        window[34, 14:23] = PALETTE[red]
+    m = measure(window, background, red, (0, 0))
+    assert m is not None
+    assert abs(m.radius - 10.3) < 1.0  # the smear reaches 13 px from the centre
+    assert m.radius / math.sqrt(m.area) < 0.63  # nearer a circle's 0.55 than a cube's 0.71
+
+
 def test_another_body_touching_is_still_another_body() -> None:
     # a small brown cube resting against the large red cube's right side (half-width 2 m + 1 m)
     window, background, origin, _centre = _red_body_window(
