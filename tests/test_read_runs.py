@@ -328,6 +328,7 @@ class StandIn:
     def __init__(self, raise_at: dict[int, BaseException] | None = None) -> None:
         self.read: list[int] = []
         self.paths: list[str] = []
+        self.votes: list[Any] = []  # the last argument of each call: --votes
         self.raise_at = raise_at or {}
 
     def __call__(self, path: str, questions: list[Question], *args: Any) -> dict[str, Any]:
@@ -336,6 +337,7 @@ class StandIn:
             raise self.raise_at[index]
         self.read.append(index)
         self.paths.append(path)
+        self.votes.append(args[-1])
         return {"path": path, "answers": [Answer(q, "True", None, f"program {q.key}") for q in questions],
                 "scene": json.dumps({"video": index}), "timings": {"perception": 0.5}}
 
@@ -394,6 +396,21 @@ def test_a_journal_of_another_run_is_refused(dummy: Path, monkeypatch: pytest.Mo
     assert out.read_bytes() + out.with_suffix(".jsonl").read_bytes() == whole
     assert not journal.exists()
     assert "resuming" in capsys.readouterr().err
+
+
+def test_votes_are_an_input_of_the_run(dummy: Path, monkeypatch: pytest.MonkeyPatch,
+                                       capsys: pytest.CaptureFixture[str]) -> None:
+    out = dummy / "preds.json"
+    _interrupted(dummy, monkeypatch, out, VIDEOS[1])
+    capsys.readouterr()
+    assert _read(dummy, out, "--quiet", "--votes", "0") == 2
+    assert "the journal of another run (--votes 6 there, 0 here)" in capsys.readouterr().err
+    stand_in = StandIn()
+    monkeypatch.setattr(read_cli, "read_video", stand_in)
+    assert _read(dummy, out, "--quiet") == 0 and stand_in.votes == [6, 6]
+    with pytest.raises(SystemExit):
+        _read(dummy, dummy / "other.json", "--votes", "-1")
+    assert "--votes: expected a whole number >= 0, got '-1'" in capsys.readouterr().err
 
 
 def test_a_torn_last_line_is_dropped_and_its_video_read_again(dummy: Path, monkeypatch: pytest.MonkeyPatch,

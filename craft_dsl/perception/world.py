@@ -24,9 +24,10 @@ the tracks and the geometry, :mod:`craft_dsl.perception.events`), ``"auto"`` (pe
 
 from __future__ import annotations
 
+import copy
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Any, Literal
 
@@ -166,6 +167,24 @@ class SceneModel:
         moved[1:] = np.any(states.positions[1:] != states.positions[:-1], axis=2)
         awake = (np.any(states.velocities != 0, axis=2) | moved) & np.array([b.dynamic for b in world.bodies])
         return RawRun(traj, awake, log)
+
+    def perturbed(self, seed: int, amount: float) -> SceneModel:
+        """This model with its counterfactuals replayed against the perceived run with each dynamic body's velocity
+        scaled by one factor ``1 + amount * r``, ``r ~ U(-1, 1)`` drawn per body (in the physics world's body order)
+        from ``seed``: a body re-simulated from its perceived state starts a little faster or slower. The fit, the
+        tracks and the factual events are shared with this model (computed once); only the counterfactual runs are
+        new. Replay mode only: re-simulated counterfactuals do not read the perceived run."""
+        if self.options.counterfactual != "replay":
+            raise PerceptionError("a perturbed replay needs the replay counterfactual mode")
+        base = self.base_run
+        dynamic = np.array([b.dynamic for b in self.physics.world.bodies], dtype=float)
+        factors = 1.0 + amount * np.random.default_rng(seed).uniform(-1.0, 1.0, dynamic.size) * dynamic
+        traj = replace(base.trajectory, velocities=base.trajectory.velocities * factors[None, :, None])
+        other = copy.copy(self)
+        other.__dict__["base_run"] = RawRun(traj, base.awake, base.log)
+        other._cf_cache = {}
+        other._reading_cf_cache = {}
+        return other
 
     @cached_property
     def fitted_run(self) -> LiveSimulation:

@@ -29,6 +29,7 @@ from ..perception.world import SceneModel
 from ..program import Program, to_json
 from ..question_parsing import question_to_program
 from ..types import DslType
+from .votes import VOTES, vote_counterfactuals
 
 #: The containers a video may come in (every one PyAV decodes); of several files of one index, ``.mpg`` is taken.
 VIDEO_SUFFIXES = (".mpg", ".mpeg", ".mp4", ".avi", ".mkv", ".webm", ".mov")
@@ -56,7 +57,9 @@ class Answer:
     ``fallback``: the answer is a guess of the program's answer type (:func:`fallback_answer`), not read from the
     video; ``error`` says why. ``premise``: the answer comes from a reading that reads one object otherwise (one
     or two of its attributes), the one the question names (:mod:`craft_dsl.perception.premise`), and says which.
-    ``warning``: why the video it was read from is not whole (its answers may be wrong). ``confidence``: the
+    ``votes``: for a counterfactual question, how many of the replays (the reader's own and the perturbed ones,
+    :func:`vote_counterfactuals`) gave each answer. ``warning``: why the video it was read from is not whole (its
+    answers may be wrong). ``confidence``: the
     probability that the answer is right (:mod:`craft_dsl.reader.confidence`), from ``confidence_inputs``,
     what the reading showed about it."""
 
@@ -67,6 +70,7 @@ class Answer:
     error: str | None = None
     fallback: bool = False
     premise: str | None = None
+    votes: dict[str, int] | None = None
     warning: str | None = None
     confidence: float | None = None
     confidence_inputs: dict[str, Any] | None = None
@@ -84,6 +88,8 @@ class Answer:
             out["fallback"] = True
         if self.premise is not None:
             out["premise"] = self.premise
+        if self.votes is not None:
+            out["votes"] = self.votes
         if self.warning is not None:
             out["warning"] = self.warning
         if self.confidence is not None:
@@ -283,12 +289,15 @@ def format_answer(value: Any) -> str | None:
 
 
 def answer_questions(scene: PerceivedScene, questions: Sequence[Question], distribution: bool = False,
-                     samples: int = 64, seed: int = 0, confidence: bool = True) -> list[Answer]:
+                     samples: int = 64, seed: int = 0, confidence: bool = True, votes: int = VOTES) -> list[Answer]:
     """Answer each question over ``scene``: on its most likely world, or as the mode of its answer distribution
-    (with that answer's probability) when ``distribution`` is set; with ``confidence``, each answer carries its
-    confidence (:func:`craft_dsl.reader.confidence.with_confidence`)."""
+    (with that answer's probability) when ``distribution`` is set; a counterfactual question's answer is the
+    majority of the replay and ``votes`` perturbed replays (:func:`vote_counterfactuals`; 0: the replay alone);
+    with ``confidence``, each answer carries its confidence (:func:`craft_dsl.reader.confidence.with_confidence`)."""
     model = SceneModel(scene)
     answers = _answer_questions(model, questions, distribution, samples, seed)
+    if votes > 0:
+        answers = vote_counterfactuals(model, answers, votes)
     if not confidence:
         return answers
     from .confidence import with_confidence

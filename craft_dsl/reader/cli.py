@@ -24,14 +24,16 @@ from ..atomic import atomic_path, write_json_atomic
 from ..errors import CraftError, ReaderError
 from ..parallel import add_workers_option
 from .video import DECODERS
+from .votes import VOTES
 
 if TYPE_CHECKING:
     from .answer import Answer, Question
 
 
 def read_video(path: str, questions: list[Question], decoder: str = "auto", distribution: bool = False,
-               samples: int = 64) -> dict[str, Any]:
-    """Perceive one video and answer its questions (the unit of work of ``--workers``)."""
+               samples: int = 64, votes: int | None = None) -> dict[str, Any]:
+    """Perceive one video and answer its questions (the unit of work of ``--workers``); ``votes``: perturbed
+    replays per counterfactual question (default :data:`craft_dsl.reader.answer.VOTES`)."""
     from .answer import answer_questions
     from .perceive import perceive_video
     from .video import incomplete
@@ -40,7 +42,8 @@ def read_video(path: str, questions: list[Question], decoder: str = "auto", dist
     try:
         perception = perceive_video(path, decoder)  # type: ignore[arg-type]
         perceived = time.perf_counter()
-        answers = answer_questions(perception.scene, questions, distribution, samples)
+        answers = answer_questions(perception.scene, questions, distribution, samples,
+                                   votes=VOTES if votes is None else votes)
     except CraftError as err:
         return {"path": path, "error": str(err)}
     done = time.perf_counter()
@@ -101,7 +104,8 @@ def cmd_read(args: argparse.Namespace) -> int:
     order = sorted(by_video)
     videos = find_videos(args.videos or [], order, args.video_map)
     header = run_header(((q.video_index, q.question_index, q.text) for q in questions), videos,
-                        {"distribution": args.distribution, "samples": args.samples, "decoder": args.decoder})
+                        {"distribution": args.distribution, "samples": args.samples, "decoder": args.decoder,
+                         "votes": args.votes})
     failed: dict[int, str] = {}
 
     def report(message: str) -> None:
@@ -114,7 +118,7 @@ def cmd_read(args: argparse.Namespace) -> int:
         done = {v for v, record in journal.records.items() if v in by_video and _resumable(record, args.perceived)}
         if done and not args.quiet:
             report(f"resuming {journal.path}: {len(done)} of {len(order)} videos already read")
-        jobs = [(v, (str(videos[v]), by_video[v], args.decoder, args.distribution, args.samples))
+        jobs = [(v, (str(videos[v]), by_video[v], args.decoder, args.distribution, args.samples, args.votes))
                 for v in order if v not in done]
 
         def finished(index: int, result: dict[str, Any]) -> None:
@@ -179,6 +183,16 @@ def cmd_read(args: argparse.Namespace) -> int:
     return 2 if failed else 0
 
 
+def _non_negative(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
+    return value
+
+
 def add_commands(sub: Any) -> None:
     """Register ``read``."""
     p = sub.add_parser(
@@ -208,6 +222,9 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--distribution", action="store_true",
                    help="answer with the mode of each question's answer distribution and give its probability")
     p.add_argument("--samples", type=int, default=64, help="Monte Carlo readings of an answer distribution")
+    p.add_argument("--votes", type=_non_negative, default=VOTES, metavar="N",
+                   help=f"perturbed replays that vote on each counterfactual question's answer with the reader's "
+                        f"own (default {VOTES}; 0: the replay alone)")
     p.add_argument("--decoder", choices=DECODERS, default="auto",
                    help="video decoder: PyAV in-process (auto), or imageio-ffmpeg's ffmpeg process")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")

@@ -11,6 +11,8 @@ For each answer the reader records its *inputs* (:func:`confidence_inputs`), mea
   the kept run from the tracks, re-anchored bodies, refits, the layout fit's RMS, whether a second physics engine
   was tried and which one was kept (and the video's frame rate, recorded, not yet a feature: no labelled videos
   below 60 fps were fitted);
+* for a counterfactual question, the share of the perturbed replays' votes its answer got
+  (:mod:`craft_dsl.reader.votes`; recorded, not yet a feature);
 * how stable the answer is under the reader's other ways of executing the same scene: the answer again with the
   other physics engine (pymunk / box2d), with the counterfactuals re-simulated from the fitted start instead of
   replayed, and with the events derived from the tracks instead of the reconstructed run's. An answer near a
@@ -183,6 +185,8 @@ def confidence_inputs(scene: PerceivedScene, questions: Sequence[Question], answ
             p = scene_p[i]
             record["scene_p"] = None if p is None else round(p, 6)
             record["agree"] = {name: answers_[i] == a.answer for name, answers_ in alternatives.items()}
+        if a.votes and a.answer in a.votes:  # recorded, not yet a feature: no labelled voted answers were fitted
+            record["vote_share"] = round(a.votes[a.answer] / sum(a.votes.values()), 6)
         out.append(record)
     return out
 

@@ -28,7 +28,7 @@ from ..pool import Task, describe, run_pool
 #: What the journal's name adds to ``--out``'s.
 JOURNAL_SUFFIX = ".partial.jsonl"
 JOURNAL_KIND = "craft-dsl read"
-JOURNAL_VERSION = 2  # 2: each answer carries its confidence
+JOURNAL_VERSION = 3  # 2: each answer carries its confidence; 3: counterfactual answers are voted (--votes)
 #: Packages that call Python from C (pymunk through cffi, Box2D through SWIG): an exception raised in such a
 #: callback is printed and swallowed there, so Ctrl-C is not raised while one runs (:func:`ctrl_c_outside_callbacks`).
 CALLBACK_PACKAGES = ("pymunk", "Box2D")
