@@ -31,9 +31,9 @@ if TYPE_CHECKING:
 
 
 def read_video(path: str, questions: list[Question], decoder: str = "auto", distribution: bool = False,
-               samples: int = 64, votes: int | None = None) -> dict[str, Any]:
+               samples: int = 64, votes: int = VOTES) -> dict[str, Any]:
     """Perceive one video and answer its questions (the unit of work of ``--workers``); ``votes``: perturbed
-    replays per counterfactual question (default :data:`craft_dsl.reader.answer.VOTES`)."""
+    replays per counterfactual question (:mod:`craft_dsl.reader.votes`)."""
     from .answer import answer_questions
     from .perceive import perceive_video
     from .video import incomplete
@@ -42,8 +42,7 @@ def read_video(path: str, questions: list[Question], decoder: str = "auto", dist
     try:
         perception = perceive_video(path, decoder)  # type: ignore[arg-type]
         perceived = time.perf_counter()
-        answers = answer_questions(perception.scene, questions, distribution, samples,
-                                   votes=VOTES if votes is None else votes)
+        answers = answer_questions(perception.scene, questions, distribution, samples, votes=votes)
     except CraftError as err:
         return {"path": path, "error": str(err)}
     done = time.perf_counter()
