@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+from collections import Counter
 from typing import Any
 
 import numpy as np
@@ -13,7 +15,7 @@ from craft_dsl.perception import ExecutionOptions, SceneModel, export_perceived
 from craft_dsl.physics import simulate
 from craft_dsl.reader import votes as votes_module
 from craft_dsl.reader.answer import Answer, Question, format_answer
-from craft_dsl.reader.votes import VOTES, uses_counterfactuals, vote_counterfactuals
+from craft_dsl.reader.votes import VOTES, decided, uses_counterfactuals, vote_counterfactuals
 from craft_dsl.templates import first_instances
 
 #: A counterfactual question of the kind CRAFT asks (how many objects enter the basket without the red one).
@@ -131,8 +133,9 @@ def test_the_majority_of_the_replays_answers_and_a_tie_keeps_the_reader_s_own(
 def test_a_replay_without_an_answer_does_not_vote(monkeypatch: pytest.MonkeyPatch) -> None:
     from craft_dsl import INVALID
 
-    got = _vote(monkeypatch, [(_answer(0, "True"), _Program([CraftError("no basket"), INVALID, False]))], votes=3)
-    assert got[0].answer == "True" and got[0].votes == {"False": 1, "True": 1}
+    got = _vote(monkeypatch, [(_answer(0, "True"), _Program([CraftError("no basket"), INVALID, False, False]))],
+                votes=4)
+    assert got[0].answer == "False" and got[0].votes == {"False": 2, "True": 1}
 
 
 def test_guesses_premises_distribution_modes_and_other_questions_are_not_voted(
@@ -168,3 +171,31 @@ def test_votes_on_a_perceived_scene_are_recorded_and_the_same_every_time(model: 
         assert a.answer in a.votes and a.votes[a.answer] == max(a.votes.values())
     # a scene exported from its own simulation: nearby starts give the same answers as the run itself
     assert [a.answer for a in first] == [a.answer for a in answers]
+
+
+def test_a_question_stops_being_replayed_once_its_majority_is_decided(monkeypatch: pytest.MonkeyPatch) -> None:
+    stable = _Program([True, True, True, False, False, False])
+    got = _vote(monkeypatch, [(_answer(0, "True"), stable)], votes=6)
+    assert got[0].answer == "True" and got[0].votes == {"True": 4}  # 4 of 7 after three replays: decided
+
+
+def _winner(tally: Counter[str], own: str) -> str:
+    best = max(tally.values())
+    return own if tally[own] == best else min(v for v, n in tally.items() if n == best)
+
+
+def test_a_decided_majority_is_the_majority_of_every_way_the_votes_left_can_fall() -> None:
+    values = ("a", "b", "c")
+    for counts in itertools.product(range(4), repeat=3):
+        for own in values:
+            tally = Counter({v: n for v, n in zip(values, counts) if n})
+            tally[own] += 1
+            for left in range(4):
+                finals = set()
+                for rest in itertools.product(values, repeat=left):
+                    finals.add(_winner(tally + Counter(rest), own))
+                if decided(tally, own, left):
+                    assert finals == {_winner(tally, own)}, (dict(tally), own, left)
+                others = max((n for v, n in tally.items() if v != own), default=0)
+                if tally[own] >= others + left:  # the stable case: the replays so far agree with the own answer
+                    assert decided(tally, own, left)

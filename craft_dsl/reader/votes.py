@@ -38,6 +38,15 @@ def uses_counterfactuals(program: Program) -> bool:
                for node in program.nodes)
 
 
+def decided(tally: Counter[str], own: str, left: int) -> bool:
+    """Whether ``left`` more votes can no longer change the majority of ``tally`` (a tie keeps ``own``)."""
+    ranked = tally.most_common()
+    runner_up = ranked[1][1] if len(ranked) > 1 else 0
+    if ranked[0][0] == own or tally[own] == ranked[0][1]:
+        return tally[own] >= max((n for v, n in ranked if v != own), default=0) + left
+    return ranked[0][1] > runner_up + left
+
+
 def vote_counterfactuals(model: SceneModel, answers: Sequence[Answer], votes: int = VOTES,
                          amount: float = VOTE_AMOUNT) -> list[Answer]:
     """Each counterfactual question's answer as the majority of its replay against the perceived run and ``votes``
@@ -45,8 +54,10 @@ def vote_counterfactuals(model: SceneModel, answers: Sequence[Answer], votes: in
     (:meth:`SceneModel.perturbed`, seeds :data:`VOTE_SEED` on); a tie keeps the replay's own answer. Chaotic contacts
     make the last digits of a perceived state decide some counterfactual outcomes; an answer that most nearby
     starts give is more often the video's (the dataset keeps only questions whose answers survive perturbations).
-    A replay where the program has no answer (INVALID, an unavailable counterfactual) does not vote. Answers that are
-    guesses, premises or distribution modes are left as they are; each voted answer records its ``votes``."""
+    A replay where the program has no answer (INVALID, an unavailable counterfactual) does not vote. A question stops
+    being replayed once the votes left cannot change its majority (most are stable: the first three replays agree
+    with its own answer), so the answers are those of all ``votes`` replays at about half their cost. Answers that are
+    guesses, premises or distribution modes are left as they are; each voted answer records the ``votes`` cast."""
     from .answer import format_answer
 
     programs: dict[int, Program] = {}
@@ -59,15 +70,20 @@ def vote_counterfactuals(model: SceneModel, answers: Sequence[Answer], votes: in
     if not programs or votes <= 0:
         return list(answers)
     tallies: dict[int, Counter[str]] = {i: Counter({str(answers[i].answer): 1}) for i in programs}
+    open_ = list(programs)
     for k in range(votes):
         sim = model.perturbed(VOTE_SEED + k, amount).simulation()
-        for i in programs:
+        for i in open_:
             try:
                 value = format_answer(programs[i].run(sim))
             except CraftError:
                 continue
             if value is not None:
                 tallies[i][value] += 1
+        left = votes - k - 1
+        open_ = [i for i in open_ if not decided(tallies[i], str(answers[i].answer), left)]
+        if not open_:
+            break
     out = list(answers)
     for i in programs:
         own = str(answers[i].answer)
