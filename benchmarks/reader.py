@@ -57,6 +57,7 @@ from craft_dsl.ranges import parse_ranges
 from craft_dsl.reader.answer import Question, answer_questions, find_videos, read_questions
 from craft_dsl.reader.perceive import perceive_video
 from craft_dsl.reader.reconstruct import MAX_ANCHORS
+from craft_dsl.reader.votes import VOTES
 from craft_dsl.render.raster import world_to_pixel
 from craft_dsl.verify import read_minimal, read_split, score
 from craft_dsl.verify.answers import answers_agree
@@ -106,7 +107,7 @@ def _position_errors(uid_map: dict[int, int], ours_world: Any, ot: Any, tt: Any)
 
 
 def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth_answers: dict[str, Any],
-              engines: list[str] | None = None) -> dict[str, Any]:
+              engines: list[str] | None = None, votes: int = VOTES) -> dict[str, Any]:
     """Read one video as the reader does, then compare everything with the ground truth."""
     t = time.perf_counter()
     try:
@@ -115,7 +116,7 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
         return {"path": path, "error": str(err), "questions": [q.key for q in questions]}
     perceived_s = time.perf_counter() - t
     t = time.perf_counter()
-    answers = answer_questions(perception.scene, questions)
+    answers = answer_questions(perception.scene, questions, votes=votes)
     answer_s = time.perf_counter() - t
     # -- ground truth (the benchmark's side) -------------------------------------------------------------------
     sim = simulate(stats["scene"], seed=stats["simulation_seed"], engine=stats["engine"])
@@ -225,6 +226,8 @@ def main() -> None:
     parser.add_argument("--engine", default="pymunk",
                         help="physics (and renderer) of the generated dataset: pymunk, box2d or original")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--votes", type=int, default=VOTES,
+                        help=f"perturbed replays per counterfactual question (craft-dsl read --votes; default {VOTES})")
     parser.add_argument("--limit", type=int, help="read only the first N test videos (a quick look)")
     parser.add_argument("--only", help="read only these video indices, e.g. 437,480-499 (development runs)")
     parser.add_argument("--json", help="write every figure and per-question record here")
@@ -269,7 +272,7 @@ def main() -> None:
     results = []
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         engines = [args.engines.split(",")] * len(jobs) if args.engines else [None] * len(jobs)
-        for i, r in enumerate(pool.map(run_video, *zip(*jobs), engines), 1):
+        for i, r in enumerate(pool.map(run_video, *zip(*jobs), engines, [args.votes] * len(jobs)), 1):
             results.append(r)
             print(f"\r{i}/{len(jobs)} videos", end="", file=sys.stderr, flush=True)
     elapsed = time.perf_counter() - t0
