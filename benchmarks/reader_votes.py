@@ -30,7 +30,7 @@ from craft_dsl.perception.schema import PerceivedScene
 from craft_dsl.question_parsing import match_question
 from craft_dsl.reader.answer import Question, answer_questions, read_questions
 from craft_dsl.reader.votes import VOTES
-from craft_dsl.verify.categories import category_of
+from craft_dsl.verify.categories import family_of
 
 COLUMNS = ("C", "CF", "D")
 
@@ -38,7 +38,7 @@ COLUMNS = ("C", "CF", "D")
 def column_of(text: str) -> str:
     """The paper column (``C``, ``CF``, ``D``) of a question's text, ``?`` where no template matches it."""
     try:
-        return category_of(match_question(text).template_id).split("/")[0]
+        return family_of(match_question(text).template_id)
     except CraftError:
         return "?"
 

@@ -38,13 +38,18 @@ def uses_counterfactuals(program: Program) -> bool:
                for node in program.nodes)
 
 
+def majority(tally: Counter[str], own: str) -> str:
+    """The answer with the most votes in ``tally``: ``own`` where it is among them, else the least of them as text."""
+    best = max(tally.values())
+    return own if tally[own] == best else min(v for v, n in tally.items() if n == best)
+
+
 def decided(tally: Counter[str], own: str, left: int) -> bool:
-    """Whether ``left`` more votes can no longer change the majority of ``tally`` (a tie keeps ``own``)."""
+    """Whether ``left`` more votes can no longer change the :func:`majority` of ``tally`` (a tie keeps ``own``)."""
     ranked = tally.most_common()
-    runner_up = ranked[1][1] if len(ranked) > 1 else 0
-    if ranked[0][0] == own or tally[own] == ranked[0][1]:
+    if tally[own] == ranked[0][1]:  # own leads (or ties for the lead): every rival must stay at most level with it
         return tally[own] >= max((n for v, n in ranked if v != own), default=0) + left
-    return ranked[0][1] > runner_up + left
+    return ranked[0][1] > (ranked[1][1] if len(ranked) > 1 else 0) + left  # another leads: strictly, ties aside
 
 
 def vote_counterfactuals(model: SceneModel, answers: Sequence[Answer], votes: int = VOTES,
@@ -60,6 +65,8 @@ def vote_counterfactuals(model: SceneModel, answers: Sequence[Answer], votes: in
     guesses, premises or distribution modes are left as they are; each voted answer records the ``votes`` cast."""
     from .answer import format_answer
 
+    if votes <= 0:
+        return list(answers)
     programs: dict[int, Program] = {}
     for i, a in enumerate(answers):
         if a.program is None or a.answer is None or a.fallback or a.premise is not None or a.probability is not None:
@@ -67,7 +74,7 @@ def vote_counterfactuals(model: SceneModel, answers: Sequence[Answer], votes: in
         program = parse(a.program)
         if uses_counterfactuals(program):
             programs[i] = program
-    if not programs or votes <= 0:
+    if not programs:
         return list(answers)
     tallies: dict[int, Counter[str]] = {i: Counter({str(answers[i].answer): 1}) for i in programs}
     open_ = list(programs)
@@ -85,10 +92,6 @@ def vote_counterfactuals(model: SceneModel, answers: Sequence[Answer], votes: in
         if not open_:
             break
     out = list(answers)
-    for i in programs:
-        own = str(answers[i].answer)
-        tally = tallies[i]
-        best = max(tally.values())
-        answer = own if tally[own] == best else min(v for v, n in tally.items() if n == best)
-        out[i] = replace(answers[i], answer=answer, votes=dict(sorted(tally.items())))
+    for i, tally in tallies.items():
+        out[i] = replace(answers[i], answer=majority(tally, str(answers[i].answer)), votes=dict(sorted(tally.items())))
     return out
