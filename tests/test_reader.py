@@ -19,7 +19,17 @@ from craft_dsl.cli import main
 from craft_dsl.errors import InputFileError, ReaderError
 from craft_dsl.physics import simulate
 from craft_dsl.reader.answer import Question, answer_questions, find_videos, format_answer, read_questions
-from craft_dsl.reader.detect import BLACK, PALETTE, WHITE, Blob, blobs, color_table, grid_labels, lookup
+from craft_dsl.reader.detect import (
+    BLACK,
+    PALETTE,
+    WHITE,
+    Blob,
+    blobs,
+    color_table,
+    grid_floor,
+    grid_labels,
+    lookup,
+)
 from craft_dsl.reader.layout import StaticRenderer, fit_statics, observation
 from craft_dsl.reader.layout_model import LayoutModel, layout_model
 from craft_dsl.reader.measure import measure
@@ -197,6 +207,27 @@ def test_blobs_count_the_bodies_of_each_colour(rendered: tuple[object, np.ndarra
         if b.dynamic:
             truth[COLORS.index(b.color)] = truth.get(COLORS.index(b.color), 0) + 1
     assert counts == truth
+
+
+def test_a_body_blurred_into_the_ground_line_lies_on_the_floor() -> None:
+    """A rescaled video blurs a body lying on the ground into the ground line, the frame's last row: where a static
+    is drawn all along the bottom edge such a piece is flagged on the floor; at the other edges, or where the bottom
+    edge is not drawn, it is only cut off."""
+    world = sample_world(1, 0)
+    background = static_layer(WorldSpec(bodies=tuple(b for b in world.bodies if not b.dynamic)), 256)
+    floor = grid_floor(background)
+    assert floor.all()  # every layout's ground spans the frame's bottom edge
+    labels = np.full((1, 128, 128), -1, dtype=np.int8)
+    labels[0, 120:128, 40:48] = COLORS.index("green")  # down to the last grid row
+    labels[0, 60:68, 0:8] = COLORS.index("red")  # at the left edge
+    labels[0, 120:128, 0:8] = COLORS.index("blue")  # in the bottom left corner
+    found = {COLORS[b.color]: b for b in blobs(labels, None, floor)}
+    assert {c: (b.touches_edge, b.on_floor) for c, b in found.items()} == {
+        "green": (True, True), "red": (True, False), "blue": (True, False)}
+    assert not any(b.on_floor for b in blobs(labels))  # no floor given
+    no_ground = floor.copy()
+    no_ground[44] = False
+    assert not {COLORS[b.color]: b for b in blobs(labels, None, no_ground)}["green"].on_floor
 
 
 def _track_over(frames: np.ndarray, color: str, x: float, y: float, area: float, seen: int) -> TrackedObject:

@@ -59,6 +59,7 @@ class Blob:
     y: float
     touches_edge: bool  # reaches the frame border (maybe cut off)
     touches_static: bool = False  # a gray piece next to a static's rim, where gray is not read (maybe cut off)
+    on_floor: bool = False  # reaches the border only along the ground line at the frame's bottom (lies on the ground)
 
 
 @lru_cache(maxsize=1)
@@ -141,6 +142,13 @@ def grid_rims(background: np.ndarray) -> np.ndarray:
     return out
 
 
+def grid_floor(background: np.ndarray) -> np.ndarray:
+    """bool [W/GRID]: grid columns where a static is drawn along the frame's bottom edge (the ground line), so a body
+    reaching that edge rests on it rather than leaving the picture."""
+    out: np.ndarray = ~clean_background(background[-1:, ::GRID])[0]
+    return out
+
+
 def grid_labels(frames: np.ndarray, background: np.ndarray, soft: bool = False) -> np.ndarray:
     """Palette index per grid pixel, int8 [T, H/GRID, W/GRID]; body colours only over a clean background (``soft``:
     the frames are softer than the renderer draws them, see :func:`soft_color_table`)."""
@@ -150,12 +158,15 @@ def grid_labels(frames: np.ndarray, background: np.ndarray, soft: bool = False) 
     return labels
 
 
-def blobs(labels: np.ndarray, rims: np.ndarray | None = None) -> list[Blob]:
+def blobs(labels: np.ndarray, rims: np.ndarray | None = None, floor: np.ndarray | None = None) -> list[Blob]:
     """Connected pieces of each body colour in each frame of grid labels.
 
     One labelling of every body-colour pixel; a piece holding two colours (bodies of different colours touching)
     is split by colour. ``rims`` (bool [H/GRID, W/GRID]): where gray is not read; a gray piece next to them is
-    flagged as maybe cut off."""
+    flagged as maybe cut off. ``floor`` (bool [W/GRID], :func:`grid_floor`): where the frame's bottom edge is a static;
+    a piece that reaches the border only at the bottom edge and only above it is flagged ``on_floor``: a soft or
+    rescaled video blurs a body lying on the ground into the ground line, the frame's last row. It still
+    ``touches_edge``: its centroid takes in blurred ground, but it moves only as the body does."""
     mask = labels >= 0
     pieces, n = ndi.label(mask, structure=_TIME_SEPARATE)
     if n == 0:
@@ -193,8 +204,10 @@ def blobs(labels: np.ndarray, rims: np.ndarray | None = None) -> list[Blob]:
     out: list[Blob] = []
     for i, k in enumerate(present.tolist()):
         c = counts[k]
-        edge = low_x[k] == 0 or low_y[k] == 0 or high_x[k] == w - 1 or high_y[k] == h - 1
+        sides = low_x[k] == 0 or low_y[k] == 0 or high_x[k] == w - 1
+        bottom = high_y[k] == h - 1
+        on_floor = bottom and not sides and floor is not None and bool(floor[low_x[k]:high_x[k] + 1].all())
         out.append(Blob(int(round(sums_t[i] / c)), k % WHITE, float(c) * GRID * GRID, GRID * sums_x[i] / c + 0.5,
-                        GRID * sums_y[i] / c + 0.5, bool(edge), bool(near_rim[k])))
+                        GRID * sums_y[i] / c + 0.5, bool(sides or bottom), bool(near_rim[k]), on_floor))
     out.sort(key=lambda b: (b.frame, b.color, b.x))
     return out

@@ -29,7 +29,7 @@ from ..perception.export import export_perceived
 from ..perception.schema import PerceivedScene
 from ..render.raster import DEFAULT_SIZE, static_layer
 from ..world import WorldSpec
-from .detect import blobs, grid_labels, grid_rims
+from .detect import blobs, grid_floor, grid_labels, grid_rims
 from .ending import run_end, scene_moving_at_end
 from .layout import StaticFit, fit_layout
 from .layout_model import layout_model
@@ -159,7 +159,8 @@ def detect_objects(frames: np.ndarray, background: np.ndarray, count: int | None
     ``rows``: the step of each frame), each marked with the size the video was drawn at (``source_size``) where it
     was rescaled to the frames' size (None: read at its own size)."""
     drawn_at = source_size if source_size is not None and source_size != frames.shape[1] else None
-    found = blobs(grid_labels(frames, background, soft_source(drawn_at)), grid_rims(background))
+    found = blobs(grid_labels(frames, background, soft_source(drawn_at)), grid_rims(background),
+                  grid_floor(background))
     tracks = merge_colour_splits(track(found, len(frames), steps=rows), rows)
     for obj in tracks:
         obj.blobs = drop_strays(obj.blobs, rows)
