@@ -206,7 +206,7 @@ def blobs(labels: np.ndarray, rims: np.ndarray | None = None, floor: np.ndarray 
         c = counts[k]
         sides = low_x[k] == 0 or low_y[k] == 0 or high_x[k] == w - 1
         bottom = high_y[k] == h - 1
-        on_floor = bottom and not sides and floor is not None and bool(floor[low_x[k]:high_x[k] + 1].all())
+        on_floor = bool(bottom and not sides and floor is not None and floor[low_x[k]:high_x[k] + 1].all())
         out.append(Blob(int(round(sums_t[i] / c)), k % WHITE, float(c) * GRID * GRID, GRID * sums_x[i] / c + 0.5,
                         GRID * sums_y[i] / c + 0.5, bool(sides or bottom), bool(near_rim[k]), on_floor))
     out.sort(key=lambda b: (b.frame, b.color, b.x))
