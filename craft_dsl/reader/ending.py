@@ -145,7 +145,6 @@ def scene_moving_at_end(blobs_by_slot: Mapping[int, Sequence[Blob | None]], runs
     is not corrected alone either: on MPEG-4 copies the frames saw still bodies move (2 of 10 such bodies)."""
     last_step = int(np.asarray(rows)[-1]) if len(rows) else 0
     found: dict[int, bool] = {}
-    flat: dict[int, bool] = {}  # the bodies seen still that the run has flying on
     for slot, blobs in blobs_by_slot.items():
         seen = seen_moving_at_end(blobs, rows)
         if seen is None or slot not in runs:
@@ -156,6 +155,7 @@ def scene_moving_at_end(blobs_by_slot: Mapping[int, Sequence[Blob | None]], runs
         elif not seen and run.moving and run.speed < VISIBLE_SPEED:
             seen = True  # a run that creeps too slowly to show
         found[slot] = seen
-        if not seen and run.moving and run.speed >= CONTRADICTED_SPEED:
-            flat[slot] = False
-    return found if len(found) == slots else flat
+    if len(found) == slots:
+        return found
+    return {slot: False for slot, seen in found.items()  # in part: the bodies seen still that the run has flying on
+            if not seen and runs[slot].moving and runs[slot].speed >= CONTRADICTED_SPEED}
