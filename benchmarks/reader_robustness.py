@@ -31,8 +31,9 @@ processes at a time, one thread each. A variant whose encoder this ffmpeg lacks,
 reported as failed in the table and skipped; a video the reader cannot read counts its questions as wrong.
 
 Printed (Markdown): per variant, accuracy (%) per test part and paper column (C, CF, D, All) with the difference in
-points against ``original``, the questions it answers wrong that ``original`` answers right and the reverse,
-videos whose layout was identified, fallback answers (guesses: ``fallback`` in ``craft-dsl read --details``), videos
+points against ``original``, the questions it answers wrong that ``original`` answers right and the reverse, the
+calibration of the answers' confidences over the test questions of both parts (expected calibration error, 10
+equal-width bins; the accuracy of the most confident 80%), videos whose layout was identified, fallback answers (guesses: ``fallback`` in ``craft-dsl read --details``), videos
 read with a warning (not whole), videos not read, seconds of perception per video (decoding included) and of encoding
 per video; then accuracy per paper sub-category over the test questions of both parts; then what was checked of each
 variant's first copy (codec, size, frames; the step offset of resampled frames). ``--json OUT`` writes every figure.
@@ -63,6 +64,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from reader_calibration import ece, risk_coverage
 
 from craft_dsl.errors import CraftError
 from craft_dsl.reader.answer import Question, find_videos, read_questions
@@ -74,6 +76,8 @@ from craft_dsl.verify.categories import CATEGORIES, FAMILIES
 
 #: ffmpeg options of lossless H.264 in the originals' pixel format.
 LOSSLESS_H264 = ("-c:v", "libx264", "-qp", "0", "-pix_fmt", "yuv420p")
+#: The share of the answers, the most confident first, whose accuracy the table gives (risk-coverage).
+KEPT = 0.8
 #: The test parts read, as (split file stem, the paper's name).
 PARTS = (("random", "easy"), ("hard", "hard"))
 
@@ -276,6 +280,8 @@ def read_variant(paths: dict[int, Path], tests: Suite, workers: int) -> dict[int
         else:
             perceived = json.loads(result["scene"])
             out[index] = {"answers": {a.question.key: a.answer for a in result["answers"]},
+                          "confidence": {a.question.key: a.confidence for a in result["answers"]
+                                         if a.confidence is not None},
                           "fallback": sum(a.fallback for a in result["answers"]),
                           "warning": result.get("warning"), "perception_s": result["timings"]["perception"],
                           "scene": perceived.get("scene"),
@@ -313,6 +319,9 @@ def figures(results: dict[int, dict[str, Any]], tests: Suite, scenes: dict[int, 
     keys = set().union(*tests.parts.values())
     out["correct"] = {f"{q.key[0]}_{q.key[1]}": q.key in predictions and answers_agree(predictions[q.key], q.answer)
                       for q in minimal if q.key in keys}
+    confidence = {k: c for r in results.values() for k, c in r.get("confidence", {}).items()}
+    rated = [(confidence[k], ok) for k, ok in out["correct"].items() if k in confidence]
+    out["calibration"] = calibration([c for c, _ in rated], [ok for _, ok in rated])
     read = [r for r in results.values() if "error" not in r]
     out.update(
         videos=len(results), not_read=len(results) - len(read),
@@ -324,6 +333,16 @@ def figures(results: dict[int, dict[str, Any]], tests: Suite, scenes: dict[int, 
         frame_offsets={str(k): n for k, n in sorted(Counter(r.get("frame_offset", 0) for r in read).items())},
     )
     return out
+
+
+def calibration(confidence: list[float], correct: list[bool]) -> dict[str, Any]:
+    """The answers' stated confidences against their correctness: expected calibration error (10 equal-width bins),
+    mean confidence, and the accuracy of the most confident :data:`KEPT` of the answers (risk-coverage)."""
+    if not confidence:
+        return {"answers": 0, "ece": None, "mean_confidence": None, "kept_accuracy": None}
+    (_, _, kept), = risk_coverage(confidence, correct, (KEPT,))
+    return {"answers": len(confidence), "ece": ece(confidence, correct),
+            "mean_confidence": float(np.mean(confidence)), "kept_accuracy": kept * 100}
 
 
 # -- the table -------------------------------------------------------------------------------------------------
@@ -344,7 +363,8 @@ def table(rows: dict[str, dict[str, Any]], tests: Suite) -> str:
     head = ["variant"]
     for _split, paper in parts:
         head += [f"{paper} {col}" for col in (*FAMILIES, "All")]
-    head += ["right→wrong / wrong→right vs original", "layout ok", "fallback answers", "warnings", "videos not read",
+    head += ["right→wrong / wrong→right vs original", "ECE", f"% right, most confident {KEPT:.0%}", "layout ok",
+             "fallback answers", "warnings", "videos not read",
              "perception s/video", "encode s/video"]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, row in rows.items():
@@ -363,6 +383,9 @@ def table(rows: dict[str, dict[str, Any]], tests: Suite) -> str:
             cells.append(f"{lost} / {gained}")
         else:
             cells.append("-")
+        cal = fig.get("calibration") or {}
+        cells += [f"{cal['ece']:.3f}" if cal.get("ece") is not None else "-",
+                  f"{cal['kept_accuracy']:.1f}" if cal.get("kept_accuracy") is not None else "-"]
         cells += [f"{fig['layout_ok']}/{fig['layout_known']}", str(fig["fallback"]), str(fig["warnings"]),
                   str(fig["not_read"]),
                   f"{fig['perception_s']:.2f}" if fig["perception_s"] is not None else "-",

@@ -121,6 +121,18 @@ def test_a_variant_that_cannot_be_made_is_a_row_of_its_own(rr: ModuleType, users
     assert "| x | failed: " in printed
 
 
+def test_calibration_of_a_variants_answers(rr: ModuleType) -> None:
+    # ten answers: the most confident eight hold one wrong one; bins 0.9-1.0 (six, 5 right) and 0.5-0.6 (four, 2)
+    confidence = [0.95] * 6 + [0.55] * 4
+    correct = [True, True, True, True, True, False, True, True, False, False]
+    cal = rr.calibration(confidence, correct)
+    assert cal["answers"] == 10
+    assert cal["ece"] == pytest.approx((6 * abs(5 / 6 - 0.95) + 4 * abs(0.5 - 0.55)) / 10)
+    assert cal["kept_accuracy"] == pytest.approx(100 * 7 / 8)
+    assert cal["mean_confidence"] == pytest.approx(0.79)
+    assert rr.calibration([], [])["ece"] is None
+
+
 def test_two_videos_in_two_variants(rr: ModuleType, users_dataset: Path, tmp_path: Path,
                                     capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "figures.json"
@@ -133,6 +145,9 @@ def test_two_videos_in_two_variants(rr: ModuleType, users_dataset: Path, tmp_pat
     assert rows["fps-10-down"]["check"]["step_offsets"].keys() <= {"0"}
     if "figures" in rows["fps-10-down"]:  # the renderer's steps: read at them
         assert rows["fps-10-down"]["figures"]["frame_offsets"] == {"0": 2}
+    calibration = rows["original"]["figures"]["calibration"]
+    assert calibration["answers"] == len(rows["original"]["figures"]["correct"])  # every answer is rated
+    assert 0 <= calibration["ece"] <= 1
     printed = capsys.readouterr().out
     assert "| original |" in printed and "| fps-10-down |" in printed
 
