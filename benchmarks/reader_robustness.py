@@ -33,10 +33,11 @@ reported as failed in the table and skipped; a video the reader cannot read coun
 Printed (Markdown): per variant, accuracy (%) per test part and paper column (C, CF, D, All) with the difference in
 points against ``original``, the questions it answers wrong that ``original`` answers right and the reverse, the
 calibration of the answers' confidences over the test questions of both parts (expected calibration error, 10
-equal-width bins; the accuracy of the most confident 80%), videos whose layout was identified, fallback answers (guesses: ``fallback`` in ``craft-dsl read --details``), videos
-read with a warning (not whole), videos not read, seconds of perception per video (decoding included) and of encoding
-per video; then accuracy per paper sub-category over the test questions of both parts; then what was checked of each
-variant's first copy (codec, size, frames; the step offset of resampled frames). ``--json OUT`` writes every figure.
+equal-width bins; the accuracy of the most confident 80%), videos whose layout was identified, fallback answers
+(guesses: ``fallback`` in ``craft-dsl read --details``), videos read with a warning (not whole), videos not read,
+seconds of perception per video (decoding included) and of encoding per video; then accuracy per paper sub-category
+over the test questions of both parts; then what was checked of each variant's first copy (codec, size, frames; the
+step offset of resampled frames). ``--json OUT`` writes every figure.
 No randomness: the same inputs give the same figures (timings aside).
 
 Each variant's reading imports ``craft_dsl`` afresh (its worker processes): in a checkout being edited, run it with
