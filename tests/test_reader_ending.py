@@ -89,9 +89,19 @@ def test_a_body_not_seen_at_the_end_or_mostly_hidden_is_left_to_the_run() -> Non
 def test_a_blob_cut_off_by_the_border_is_not_looked_at() -> None:
     """A body entering the frame's edge: its blob's centroid moves with the cut."""
     k = np.arange(FRAMES)
-    xs = 250.0 + np.where(k >= FRAMES - 5, 1.5, 0.0)
-    assert seen_moving_at_end(_blobs(xs, np.full(FRAMES, 30.0), edge_from=FRAMES - 5), ROWS) is None
+    xs = 240.0 + 0.3 * np.clip(k - (FRAMES - 25), 0, None)
+    assert seen_moving_at_end(_blobs(xs, np.full(FRAMES, 30.0), edge_from=FRAMES - 25), ROWS) is None
     assert seen_moving_at_end(_blobs(xs, np.full(FRAMES, 30.0)), ROWS) is True
+
+
+def test_a_still_body_shifted_once_is_not_moving() -> None:
+    """A lossy copy moves a still body's centroid once where a group of pictures begins (MPEG-4 at q 8: 1.6 px):
+    as far from the last position 10 steps before the end as 20 steps before, which no motion is."""
+    k = np.arange(FRAMES)
+    xs = 50.0 + np.where(k >= FRAMES - 6, 1.6, 0.0)
+    assert seen_moving_at_end(_blobs(xs, np.full(FRAMES, 30.0)), ROWS) is not True
+    falling = 30.0 + 0.5 * 0.02 * np.clip(k - (FRAMES - 20), 0, None) ** 2  # from rest 20 steps before the end
+    assert seen_moving_at_end(_blobs(np.full(FRAMES, 50.0), falling), ROWS) is True
 
 
 def test_a_body_rolling_along_the_ground_line_is_seen_moving() -> None:

@@ -76,3 +76,24 @@ def test_a_ghost_away_from_the_statics_does_not_make_aliased_edges_antialiased()
     assert edge_share(*observation(background)) > ALIASED_EDGE_SHARE  # over the whole picture it would read antialiased
     fit = fit_layout(np.repeat(background[None], 8, axis=0), scene=12)
     assert fit.aliased
+
+
+def test_a_body_first_seen_late_leaves_the_slot_of_one_seen_there_from_the_start() -> None:
+    # scene 2 (a held-out H.264 copy): a small circle seen from the first frame in slot 8's start range, and a
+    # small circle whose colour was not read for 170 frames, first seen inside the same x range; by distance alone
+    # the late one took slot 8 and pushed the early one 29 m away to slot 6
+    model = layout_model(2)
+    values = model.from_unit({d.path: 0.5 for d in model.draws})
+
+    def seen_from(frame: int, x_m: float, y_m: float, shape_size: tuple[str, str]) -> TrackedObject:
+        x, y = world_to_pixel(x_m, y_m)
+        blobs: list[Blob | None] = [None] * frame + [Blob(k, 0, 60.0, float(x), float(y), False)
+                                                     for k in range(frame, 600)]
+        return TrackedObject(0, blobs, {shape_size: 1.0})
+
+    early = seen_from(0, -4.06, 8.0, ("circle", "small"))
+    late = seen_from(170, -8.5, 6.0, ("circle", "small"))
+    others = [seen_from(0, -22.0, 33.96, ("circle", "large")), seen_from(0, 22.0, 8.0, ("circle", "large"))]
+    slots = assign_slots(model, values, [early, late, *others])
+    assert slots[2:] == [7, 9]
+    assert (slots[0], slots[1]) == (8, 6)

@@ -43,8 +43,13 @@ MOVE_PX = 0.2
 #: ... and at least this many times the video's own jitter of that body's centroid (a lossy copy's is larger).
 JITTER_FACTOR = 2.0
 #: A body is moving at the end when its averaged position this many steps before the end is :data:`MOVE_PX` from
-#: the last one, and twice as many steps before at least as far (a steady motion, not a passing artefact).
+#: the last one, and twice as many steps before :data:`STEADY_RATIO` times as far (a steady motion, not a passing
+#: artefact).
 MOVING_STEPS = 10
+#: A moving body is further from its last position twice as many steps before: twice as far at a steady speed, 1.2
+#: times (averaged positions) for one that started falling from rest 20 steps before the end. A still body whose
+#: centroid a lossy copy shifts once, where a group of pictures begins (MPEG-4 at q 8: 1.6 px), is as far at both.
+STEADY_RATIO = 1.1
 #: A body still for this many steps before the last frame is at rest at the end (sleeping takes 30).
 RESTING_STEPS = 40
 #: Share of the frames of the last :data:`RESTING_STEPS` steps in which a resting body must be seen alone.
@@ -104,7 +109,7 @@ def _seen_moving_at_end(blobs: Sequence[Blob | None], rows: np.ndarray, cut: boo
         return float(away[i]) if i >= 0 and steps[i] >= step - gap else None
 
     near, far = away_at(last_step - MOVING_STEPS), away_at(last_step - 2 * MOVING_STEPS)
-    if near is not None and far is not None and near > threshold and far >= near:
+    if near is not None and far is not None and near > threshold and far >= STEADY_RATIO * near:
         return True
     window = steps >= last_step - RESTING_STEPS
     if steps[0] > last_step - RESTING_STEPS or np.count_nonzero(window) < RESTING_COVER * np.count_nonzero(

@@ -6,8 +6,9 @@ what is left is a handful of numbers per body: the draws of its slot's start (po
 by running the physics engine itself:
 
 1. **Slots.** Each tracked body is given one of the layout's dynamic slots (Hungarian assignment): the cost is how
-   far its first sighting lies from the slot's start region, plus the log-probability that its (shape, size) is
-   one the slot allows. The slot fixes the creation order, hence the uniqueIDs and the engine's body order.
+   far its first sighting lies from the slot's start region (for a body first seen later, beyond how far it could
+   have moved since), plus the log-probability that its (shape, size) is one the slot allows. The slot fixes the
+   creation order, hence the uniqueIDs and the engine's body order.
 2. **Start.** Gauss-Newton (finite differences, backtracking, each draw kept within its range) on the start draws
    (the slots' own, and variables only the slots read) against the exact poses (render and compare,
    :mod:`craft_dsl.reader.refine`) of the first :data:`START_FRAMES` frames, and colour centroids where there is no
@@ -190,6 +191,15 @@ def _slot_starts(model: LayoutModel, values: Mapping[str, float]) -> list[tuple[
     return out
 
 
+#: m/s: a body first seen only after the first frame (hidden, or its colour not read at first) may have moved this
+#: fast meanwhile: its first sighting's distance from a slot counts only beyond that travel, and at least
+#: HIDDEN_SHARE of it (a slot whose start the sighting fits, such as one above the picture it fell from, still
+#: wins). A small brown circle that a H.264 copy showed in gray for 170 frames was first seen 150 px from its start,
+#: inside another body's slot, and took that slot from the body seen there from the first frame.
+HIDDEN_SPEED = 20.0
+HIDDEN_SHARE = 0.1
+
+
 def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Sequence[TrackedObject],
                  rows: np.ndarray | Sequence[int] | None = None) -> list[int]:
     """The slot of each object (see the module docstring); objects beyond the slots get -1. ``rows``: the step
@@ -210,8 +220,10 @@ def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Seque
                 t = (int(rows[first]) if rows is not None else first + 1) / SIM_FPS
                 fall = np.array([0.0, vy * t + 0.5 * GRAVITY[1] * t * t])
                 gap = np.maximum(np.maximum(lo + fall - pos, 0.0), pos - hi - fall)
-            elif first > 0:  # hidden at first: only x is comparable
-                gap = np.array([max(lo[0] - pos[0], 0.0, pos[0] - hi[0]), 0.0])
+            elif first > 0:  # hidden at first: only x is comparable, less so the longer it was hidden
+                t = (int(rows[first]) if rows is not None else first + 1) / SIM_FPS
+                off = max(lo[0] - pos[0], 0.0, pos[0] - hi[0])
+                gap = np.array([max(off - HIDDEN_SPEED * t, HIDDEN_SHARE * off), 0.0])
             else:
                 gap = np.maximum(np.maximum(lo - pos, 0.0), pos - hi)
             allowed = sum(p for (shape, size), p in obj.shape_size.items()
