@@ -54,6 +54,11 @@ ALIASED_EDGE_SHARE = 0.05
 #: video with a ghost read 0.054 over the whole picture, 0.003 near its statics).
 EDGE_BAND = 2
 _FD = 1e-4
+#: Statics are drawn in greys (black, the basket's light grey, white): a pixel of the median background with more
+#: chroma than this belongs to a body, whatever its colour reads as. A small yellow triangle resting for most of a
+#: H.264 copy, washed pale in the median, matches no body colour; unmasked, its pale pixels drew the basket 17 px
+#: aside to cover them.
+STATIC_CHROMA = 12.0
 #: After Gauss-Newton, the fit's WEAK_DIRECTIONS least determined directions are searched along at WEAK_SEARCH_POINTS
 #: places each (blurred, at a quarter of the resolution), and the fit redone from the best; its result is kept when
 #: its residual is under WEAK_SEARCH_GAIN times the first fit's.
@@ -98,10 +103,20 @@ def _luminance(rgb: np.ndarray) -> np.ndarray:
     return np.asarray(rgb, dtype=np.float32).mean(axis=-1)
 
 
+def chroma(rgb: np.ndarray) -> np.ndarray:
+    """float [...]: the chroma magnitude of RGB pixels [..., 3] (ITU-R BT.601 Cb, Cr; 0 for any grey)."""
+    r, g, b = (np.asarray(rgb, dtype=np.float32)[..., i] for i in range(3))
+    cb = -0.168736 * r - 0.331264 * g + 0.5 * b
+    cr = 0.5 * r - 0.418688 * g - 0.081312 * b
+    out: np.ndarray = np.hypot(cb, cr)
+    return out
+
+
 def observation(median: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Luminance of the median image and the weight of each pixel (0 on and around body colours)."""
+    """Luminance of the median image and the weight of each pixel (0 on and around bodies: their colours, and any
+    pixel with more than :data:`STATIC_CHROMA` of chroma, which no static has)."""
     labels = lookup(median)
-    body = (labels >= 0) & (labels < WHITE)
+    body = ((labels >= 0) & (labels < WHITE)) | (chroma(median) > STATIC_CHROMA)
     body = ndi.binary_opening(body, iterations=1)  # thin grey rims of statics are not bodies
     weight = (~ndi.binary_dilation(body, iterations=3)).astype(np.float32)
     return _luminance(median), weight
