@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from craft_dsl.reader.detect import WHITE, Blob, lookup
-from craft_dsl.reader.layout import ALIASED_EDGE_SHARE, STATIC_CHROMA, chroma, edge_share, fit_layout, observation
+from craft_dsl.reader.detect import WHITE, Blob, chroma, lookup
+from craft_dsl.reader.layout import ALIASED_EDGE_SHARE, STATIC_CHROMA, edge_share, fit_layout, observation
 from craft_dsl.reader.layout_model import layout_model
 from craft_dsl.reader.reconstruct import assign_slots, first_window
 from craft_dsl.reader.track import TrackedObject
@@ -103,7 +103,8 @@ def test_a_washed_out_body_in_the_median_background_does_not_count_as_static() -
     # a body resting for most of a lossy copy, washed pale in the median: no body colour reads it, its chroma does
     background = _background(aliased=False).copy()
     pale = np.array([250, 238, 150], dtype=np.uint8)
-    assert lookup(pale[None, None])[0, 0] < 0 or lookup(pale[None, None])[0, 0] >= WHITE
+    label = lookup(pale[None, None])[0, 0]
+    assert label < 0 or label >= WHITE
     assert chroma(pale) > STATIC_CHROMA
     background[200:210, 20:30] = pale
     _lum, weight = observation(background)

@@ -83,6 +83,18 @@ SOFT_SHARE = 0.35
 SOFT_RESIDUAL = 12.0
 
 
+def cb_cr(rgb: np.ndarray) -> np.ndarray:
+    """float [..., 2]: the chroma (Cb, Cr; ITU-R BT.601, full range) of RGB values [..., 3]; zero for any grey."""
+    r, g, b = (np.asarray(rgb, dtype=np.float64)[..., i] for i in range(3))
+    return np.stack([-0.168736 * r - 0.331264 * g + 0.5 * b, 0.5 * r - 0.418688 * g - 0.081312 * b], axis=-1)
+
+
+def chroma(rgb: np.ndarray) -> np.ndarray:
+    """float [...]: the chroma magnitude of RGB values [..., 3] (:func:`cb_cr`)."""
+    out: np.ndarray = np.linalg.norm(cb_cr(rgb), axis=-1)
+    return out
+
+
 def mix_residual(rgb: np.ndarray, color: int) -> tuple[np.ndarray, np.ndarray]:
     """For RGB values float [N, 3]: the share of palette colour ``color`` in the nearest mix of it with white and
     black, and the RGB distance to that mix (both float [N])."""

@@ -28,7 +28,7 @@ from scipy import ndimage as ndi
 from ..render.raster import DEFAULT_SIZE, static_body_layers, static_layer
 from ..scenes import Uniform, list_scenes
 from ..world import BodySpec, WorldSpec
-from .detect import WHITE, lookup
+from .detect import WHITE, chroma, lookup
 from .layout_model import LayoutModel, layout_model
 
 #: Frames whose median is the background image.
@@ -101,15 +101,6 @@ def edge_share(lum: np.ndarray, weight: np.ndarray) -> float:
 
 def _luminance(rgb: np.ndarray) -> np.ndarray:
     return np.asarray(rgb, dtype=np.float32).mean(axis=-1)
-
-
-def chroma(rgb: np.ndarray) -> np.ndarray:
-    """float [...]: the chroma magnitude of RGB pixels [..., 3] (ITU-R BT.601 Cb, Cr; 0 for any grey)."""
-    r, g, b = (np.asarray(rgb, dtype=np.float32)[..., i] for i in range(3))
-    cb = -0.168736 * r - 0.331264 * g + 0.5 * b
-    cr = 0.5 * r - 0.418688 * g - 0.081312 * b
-    out: np.ndarray = np.hypot(cb, cr)
-    return out
 
 
 def observation(median: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -215,13 +215,12 @@ def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Seque
         first = seen[0] if seen else 0
         b = obj.blobs[first]
         pos = np.array(to_metres(b.x, b.y, 256), dtype=float) if b is not None else np.array([0.0, 60.0])
+        t = (int(rows[first]) if rows is not None else first + 1) / SIM_FPS  # seconds until its first sighting
         for s, (lo, hi, vy) in enumerate(starts):
             if first > 0 and lo[1] > Y_MAX:  # fell in from above the picture: fallen from its start since
-                t = (int(rows[first]) if rows is not None else first + 1) / SIM_FPS
                 fall = np.array([0.0, vy * t + 0.5 * GRAVITY[1] * t * t])
                 gap = np.maximum(np.maximum(lo + fall - pos, 0.0), pos - hi - fall)
             elif first > 0:  # hidden at first: only x is comparable, less so the longer it was hidden
-                t = (int(rows[first]) if rows is not None else first + 1) / SIM_FPS
                 off = max(lo[0] - pos[0], 0.0, pos[0] - hi[0])
                 gap = np.array([max(off - HIDDEN_SPEED * t, HIDDEN_SHARE * off), 0.0])
             else:

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..render.raster import DEFAULT_SIZE
 from ..vocabulary import COLORS, SHAPES, SIZES
-from .detect import GRAY, PALETTE, SOFT_RESIDUAL, Blob, mix_residual
+from .detect import GRAY, PALETTE, SOFT_RESIDUAL, Blob, cb_cr, mix_residual
 from .measure import Measurement, measure
 from .refine import SOFT_ANGLE_STARTS, refine
 
@@ -546,8 +546,7 @@ def core_colour(obj: TrackedObject, frames: np.ndarray) -> np.ndarray | None:
 def luma_chroma(rgb: np.ndarray) -> tuple[float, np.ndarray]:
     """The luma Y and chroma (Cb, Cr) of one RGB colour (ITU-R BT.601, full range; float)."""
     r, g, b = (float(v) for v in rgb)
-    return (0.299 * r + 0.587 * g + 0.114 * b,
-            np.array([-0.168736 * r - 0.331264 * g + 0.5 * b, 0.5 * r - 0.418688 * g - 0.081312 * b]))
+    return 0.299 * r + 0.587 * g + 0.114 * b, cb_cr(np.array([r, g, b]))
 
 
 def colour_distance(core: np.ndarray, color: int) -> float:
