@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 from scipy import ndimage as ndi
 
-from craft_dsl.errors import ReaderError
 from craft_dsl.reader.answer import Question, answer_questions
 from craft_dsl.reader.detect import PALETTE, SOFT_SHARE, Blob, color_table, lookup, soft_color_table
 from craft_dsl.reader.perceive import perceive_video
@@ -52,12 +51,6 @@ def test_a_larger_video_is_decoded_at_the_size_asked_for(video: Path, tmp_path: 
     assert decode(big, decoder).shape[1:] == (512, 512, 3)  # type: ignore[arg-type]
     frames = decode(big, decoder, size=256)  # type: ignore[arg-type]
     assert frames.shape[1:] == (256, 256, 3) and len(frames) == len(decode(video))
-
-
-def test_frames_that_are_not_square_are_refused(video: Path, tmp_path: Path) -> None:
-    wide = _rescaled(video, tmp_path / "wide.mp4", 320, 256)
-    with pytest.raises(ReaderError, match="320x256; CRAFT videos are square"):
-        decode(wide, size=256)
 
 
 def test_a_512_pixel_copy_is_read_as_the_original(users_dataset: Path, video: Path, tmp_path: Path) -> None:

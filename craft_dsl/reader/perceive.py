@@ -33,6 +33,7 @@ from .detect import blobs, grid_floor, grid_labels, grid_rims
 from .ending import run_end, scene_moving_at_end
 from .layout import StaticFit, fit_layout
 from .layout_model import layout_model
+from .picture import Picture
 from .reconstruct import Reconstruction, fit_frames, reader_engines, reconstruct_best, slot_uid, start_frames
 from .timing import frame_offset as measure_offset
 from .timing import offsets_allowed
@@ -52,7 +53,7 @@ from .track import (
     track,
     verify_shape,
 )
-from .video import Decoder, FrameRate, checked_rate, decode_sized, frame_rate, steps_shown
+from .video import Decoder, FrameRate, checked_rate, decode_picture, frame_rate, steps_shown
 
 
 @dataclass
@@ -67,6 +68,7 @@ class Perception:
     frame_rate: FrameRate = FrameRate(60.0, "given")  # the rate the frames were read at, and where it comes from
     frame_steps: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # step shown by each frame
     frame_offset: int = 0  # steps each frame shows earlier than the rate's rule (measured or given)
+    picture: Picture | None = None  # where the picture lies in frames that are not square (None: the whole frame)
 
 
 def frame_steps_of(frames: int, fps: float | None = None, frame_steps: Sequence[int] | np.ndarray | None = None
@@ -234,13 +236,21 @@ def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scen
                    engines: Sequence[str] | None = None, fps: float | None = None,
                    frame_steps: Sequence[int] | np.ndarray | None = None, frame_offset: int | None = None
                    ) -> Perception:
-    """Perceive a video file (see the module docstring and :func:`perceive_frames`). Its frame rate is measured
+    """Perceive a video file (see the module docstring and :func:`perceive_frames`). Frames that are not square are
+    read as the square picture they hold (:mod:`craft_dsl.reader.picture`; where it was found: ``picture`` and the
+    scene's ``meta["picture"]``). Its frame rate is measured
     (:func:`~craft_dsl.reader.video.frame_rate`) unless ``fps`` or ``frame_steps`` state it, and so is the step its
     first frame shows unless ``frame_offset`` or ``frame_steps`` state it."""
     timings: dict[str, float] = {}
     t = time.perf_counter()
-    frames, source = decode_sized(path, decoder, size=DEFAULT_SIZE)  # another size is read at the reader's size
+    # another size is read at the reader's size; frames that are not square, as the square picture they hold
+    frames, picture = decode_picture(path, decoder, size=DEFAULT_SIZE)
     rate = frame_rate(path, len(frames)) if fps is None and frame_steps is None else None
     timings["decode"] = time.perf_counter() - t
-    return perceive_frames(frames, scene, timings, engines, rate.fps if rate is not None else fps, frame_steps, rate,
-                           source_size=source, frame_offset=frame_offset)
+    perception = perceive_frames(frames, scene, timings, engines, rate.fps if rate is not None else fps, frame_steps,
+                                 rate, source_size=picture.side, frame_offset=frame_offset)
+    if picture.how != "whole":  # where the picture was found in frames that are not square
+        perception.picture = picture
+        perception.scene = perception.scene.model_copy(
+            update={"meta": {**(perception.scene.meta or {}), "picture": picture.to_json()}})
+    return perception

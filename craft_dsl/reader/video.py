@@ -26,12 +26,13 @@ re-encode it at 60 fps or less.
 
 from __future__ import annotations
 
+import itertools
 import math
 import numbers
 import os
 import re
 import subprocess
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -42,6 +43,7 @@ import numpy as np
 from ..errors import ReaderError
 from ..render.raster import SIM_FPS
 from ..render.video import MPEG_FRAME_RATES
+from .picture import PICTURE_FRAMES, Picture, find_picture
 
 Decoder = Literal["auto", "pyav", "ffmpeg"]
 DECODERS: tuple[str, ...] = ("auto", "pyav", "ffmpeg")
@@ -62,7 +64,7 @@ def _check_file(path: Path) -> None:
         raise ReaderError(f"{path}: the video file is empty")
 
 
-def _decode_pyav(path: Path, size: int | None = None) -> tuple[np.ndarray, int]:
+def _decode_pyav(path: Path, size: int | None = None) -> tuple[np.ndarray, Picture]:
     import av
 
     try:
@@ -73,16 +75,26 @@ def _decode_pyav(path: Path, size: int | None = None) -> tuple[np.ndarray, int]:
     try:
         stream = container.streams.video[0]
         stream.thread_type = "NONE"
-        _check_square(path, stream.width, stream.height)
-        scale: dict[str, Any] = {}
-        source = side = int(stream.width)
-        if size is not None and source != size:
-            scale = {"width": size, "height": size, "interpolation": "AREA" if source > size else "BILINEAR"}
-            side = size
-        frames = _FrameBuffer(_expected_frames(stream), side)
-        to_rgb = rgb_converter(**scale)
-        for f in container.decode(stream):
-            frames.append(to_rgb(f))
+        width, height = int(stream.width), int(stream.height)
+        decoded = container.decode(stream)
+        if width == height:
+            picture = Picture(0, 0, width, height, width, height, "whole")
+            frames = _FrameBuffer(_expected_frames(stream), size or width)
+            to_rgb = rgb_converter(**_scaling(width, height, size))
+            for f in decoded:
+                frames.append(to_rgb(f))
+        else:  # the picture is measured in the first frames at their own size, then cut out and made square
+            first = []
+            for f in decoded:
+                first.append(f)
+                if len(first) == PICTURE_FRAMES:
+                    break
+            if not first:
+                raise ReaderError(f"{path}: the video has no frames")
+            native = rgb_converter()
+            picture = find_picture(np.stack([native(f) for f in first]))
+            frames = _FrameBuffer(_expected_frames(stream), size or picture.side)
+            _square_pictures(stream, picture, size or picture.side, itertools.chain(first, decoded), frames.append)
     except ReaderError:
         raise
     except Exception as err:  # noqa: BLE001
@@ -91,7 +103,54 @@ def _decode_pyav(path: Path, size: int | None = None) -> tuple[np.ndarray, int]:
         container.close()
     if not frames.count:
         raise ReaderError(f"{path}: the video has no frames")
-    return frames.array(), source
+    return frames.array(), picture
+
+
+def _scaling(width: int, height: int, size: int | None) -> dict[str, Any]:
+    """The rescaling options of a ``width`` x ``height`` picture to ``size`` x ``size`` (none where it is that)."""
+    if size is None or (width, height) == (size, size):
+        return {}
+    return {"width": size, "height": size, "interpolation": "AREA" if min(width, height) > size else "BILINEAR"}
+
+
+def _picture_filters(picture: Picture, side: int) -> list[tuple[str, str]]:
+    """FFmpeg filters (name, arguments) that cut ``picture`` out of a frame and rescale it to ``side`` x ``side``."""
+    filters = []
+    if picture.how != "whole":
+        filters.append(("crop", f"{picture.width}:{picture.height}:{picture.x}:{picture.y}"))
+    scale = _scaling(picture.width, picture.height, side)
+    if scale:
+        filters.append(("scale", f"{side}:{side}:flags={scale['interpolation'].lower()}"))
+    return filters
+
+
+def _square_pictures(stream: Any, picture: Picture, side: int, decoded: Iterable[Any],
+                     append: Callable[[np.ndarray], None]) -> None:
+    """Each decoded frame's picture, ``side`` x ``side`` RGB, passed to ``append``: FFmpeg's crop and scale filters
+    in one PyAV filter graph (as the ``ffmpeg`` decoder runs them)."""
+    import av
+
+    graph = av.filter.Graph()
+    chain = [graph.add_buffer(template=stream)]
+    chain += [graph.add(name, args) for name, args in (*_picture_filters(picture, side), ("format", "rgb24"))]
+    chain.append(graph.add("buffersink"))
+    for a, b in zip(chain, chain[1:]):
+        a.link_to(b)
+    graph.configure()
+
+    def drain() -> None:
+        while True:
+            try:
+                out = graph.vpull()
+            except (av.error.BlockingIOError, av.error.EOFError):
+                return
+            append(out.to_ndarray())
+
+    for f in decoded:
+        graph.vpush(f)
+        drain()
+    graph.vpush(None)
+    drain()
 
 
 def rgb_converter(width: int | None = None, height: int | None = None, interpolation: str | None = None
@@ -167,20 +226,11 @@ def _probe_size(path: Path, exe: str) -> tuple[int, int]:
     return int(match.group(1)), int(match.group(2))
 
 
-def _decode_ffmpeg(path: Path, size: int | None = None) -> tuple[np.ndarray, int]:
-    import imageio_ffmpeg
-
-    exe = imageio_ffmpeg.get_ffmpeg_exe()
-    width, height = _probe_size(path, exe)
-    _check_square(path, width, height)
-    source = width
+def _ffmpeg_frames(exe: str, path: Path, width: int, height: int, options: list[str]) -> np.ndarray:
+    """Frames [n, height, width, 3] that ffmpeg writes of ``path`` with ``options`` (filters, a frame limit)."""
     fmt = ["-f", "mpegvideo"] if path.suffix.lower() == ".mpg" else []
-    scale: list[str] = []
-    if size is not None and (width, height) != (size, size):
-        scale = ["-vf", f"scale={size}:{size}:flags={'area' if width > size else 'bilinear'}"]
-        width = height = size
-    cmd = [exe, "-loglevel", "error", "-threads", "1", *fmt, "-i", str(path), *scale, "-f", "rawvideo", "-pix_fmt",
-           "rgb24", "-"]
+    cmd = [exe, "-loglevel", "error", "-threads", "1", *fmt, "-i", str(path), *options, "-f", "rawvideo",
+           "-pix_fmt", "rgb24", "-"]
     proc = subprocess.run(cmd, capture_output=True, check=False)
     if proc.returncode != 0:
         message = proc.stderr.decode("utf-8", "replace").strip().splitlines()
@@ -189,24 +239,43 @@ def _decode_ffmpeg(path: Path, size: int | None = None) -> tuple[np.ndarray, int
     frame_bytes = width * height * 3
     if data.size == 0 or data.size % frame_bytes:
         raise ReaderError(f"{path}: decoded {data.size} bytes, not a whole number of {width}x{height} frames")
-    return data.reshape(-1, height, width, 3), source
+    return data.reshape(-1, height, width, 3)
 
 
-def _check_square(path: Path, width: int, height: int) -> None:
-    if width != height:
-        raise ReaderError(f"{path}: frames are {width}x{height}; CRAFT videos are square")
+def _decode_ffmpeg(path: Path, size: int | None = None) -> tuple[np.ndarray, Picture]:
+    import imageio_ffmpeg
+
+    exe = imageio_ffmpeg.get_ffmpeg_exe()
+    width, height = _probe_size(path, exe)
+    if width == height:
+        picture = Picture(0, 0, width, height, width, height, "whole")
+    else:
+        picture = find_picture(_ffmpeg_frames(exe, path, width, height, ["-frames:v", str(PICTURE_FRAMES)]))
+    side = size or picture.side
+    filters = ",".join(f"{name}={args}" for name, args in _picture_filters(picture, side))
+    options = ["-vf", filters] if filters else []
+    return _ffmpeg_frames(exe, path, side, side, options), picture
 
 
 def decode(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | None = None) -> np.ndarray:
     """RGB frames of a video, uint8 [T, H, W, 3]; ``decoder``: ``auto`` (PyAV if installed), ``pyav``,
     ``ffmpeg`` (imageio-ffmpeg). ``size``: frames of another size are rescaled to ``size`` x ``size`` as they are
-    decoded (area averaging when shrinking, bilinear when enlarging). Frames that are not square are refused."""
-    return decode_sized(path, decoder, size)[0]
+    decoded (area averaging when shrinking, bilinear when enlarging). Frames that are not square are read as the
+    square picture they hold (:mod:`craft_dsl.reader.picture`: between bars, or stretched), at ``size`` or at the
+    picture's side."""
+    return decode_picture(path, decoder, size)[0]
 
 
 def decode_sized(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | None = None
                  ) -> tuple[np.ndarray, int]:
-    """:func:`decode`'s frames and the video's own frame size (pixels, before any rescaling)."""
+    """:func:`decode`'s frames and the video's own picture size (pixels, before any rescaling)."""
+    frames, picture = decode_picture(path, decoder, size)
+    return frames, picture.side
+
+
+def decode_picture(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | None = None
+                   ) -> tuple[np.ndarray, Picture]:
+    """:func:`decode`'s frames and where the picture lies in the video's own frames."""
     target = Path(path)
     _check_file(target)
     if decoder not in DECODERS:
