@@ -37,7 +37,8 @@ equal-width bins; the accuracy of the most confident 80%), videos whose layout w
 (guesses: ``fallback`` in ``craft-dsl read --details``), videos read with a warning (not whole), videos not read,
 seconds of perception per video (decoding included) and of encoding per video; then accuracy per paper sub-category
 over the test questions of both parts; then what was checked of each variant's first copy (codec, size, frames; the
-step offset of resampled frames). ``--json OUT`` writes every figure.
+step offset of resampled frames). ``--json OUT`` writes every figure, with each variant's largest
+``start_px`` (how near whole copies come to the reader's cut-at-the-start warning, :mod:`craft_dsl.reader.whole`).
 No randomness: the same inputs give the same figures (timings aside).
 
 Each variant's reading imports ``craft_dsl`` afresh (its worker processes): in a checkout being edited, run it with
@@ -61,6 +62,7 @@ from collections import Counter
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -71,6 +73,7 @@ from craft_dsl.errors import CraftError
 from craft_dsl.reader.answer import Question, find_videos, read_questions
 from craft_dsl.reader.cli import read_video
 from craft_dsl.reader.runs import run_tasks
+from craft_dsl.reader.video import RUN_STEPS
 from craft_dsl.render.raster import frame_steps
 from craft_dsl.verify import answers_agree, read_minimal, read_split, score
 from craft_dsl.verify.categories import CATEGORIES, FAMILIES
@@ -230,6 +233,7 @@ class Suite:
     questions: list[Question]
     parts: dict[str, set[tuple[int, int]]]
     videos: list[int]
+    steps: int = RUN_STEPS  # the run each video shows (generation_config.json's steps)
 
     def by_video(self) -> dict[int, list[Question]]:
         out: dict[int, list[Question]] = {v: [] for v in self.videos}
@@ -262,7 +266,15 @@ def load_suite(root: Path, limit: int | None = None) -> Suite:
     chosen = set(videos)
     questions = [q for q in questions if q.video_index in chosen]
     parts = {split: {k for k in keys if k[0] in chosen} for split, keys in parts.items()}
-    return Suite(root, questions, parts, videos)
+    return Suite(root, questions, parts, videos, run_steps(root))
+
+
+def run_steps(root: Path) -> int:
+    """The steps of each run of the dataset at ``root`` (its ``generation_config.json``; CRAFT's 600 without one)."""
+    config = root / "generation_config.json"
+    if not config.is_file():
+        return RUN_STEPS
+    return int(json.loads(config.read_text()).get("steps", RUN_STEPS))
 
 
 # -- reading a variant ------------------------------------------------------------------------------------------
@@ -270,7 +282,7 @@ def load_suite(root: Path, limit: int | None = None) -> Suite:
 
 def read_variant(paths: dict[int, Path], tests: Suite, workers: int) -> dict[int, dict[str, Any]]:
     """Each video read as ``craft-dsl read`` reads it: video_index -> {answers, fallback, warning, perception_s,
-    scene, frame_offset} or {error}."""
+    scene, frame_offset, start_px} or {error}."""
     by_video = tests.by_video()
     jobs = [(v, (str(paths[v]), by_video[v])) for v in tests.videos]
     out: dict[int, dict[str, Any]] = {}
@@ -286,13 +298,14 @@ def read_variant(paths: dict[int, Path], tests: Suite, workers: int) -> dict[int
                           "fallback": sum(a.fallback for a in result["answers"]),
                           "warning": result.get("warning"), "perception_s": result["timings"]["perception"],
                           "scene": perceived.get("scene"),
-                          "frame_offset": int((perceived.get("meta") or {}).get("frame_offset", 0))}
+                          "frame_offset": int((perceived.get("meta") or {}).get("frame_offset", 0)),
+                          "start_px": float((perceived.get("meta") or {}).get("start_px", 0.0))}
         print(f"\r  read {len(out)}/{len(jobs)} videos", end="", file=sys.stderr, flush=True)
 
     def crashed(index: int, message: str) -> None:
         out[index] = {"error": f"video {index} ({paths[index]}): {message}"}
 
-    run_tasks(read_video, jobs, max(1, min(workers, len(jobs))), finished, crashed)
+    run_tasks(partial(read_video, steps=tests.steps), jobs, max(1, min(workers, len(jobs))), finished, crashed)
     print(file=sys.stderr)
     return out
 
@@ -332,6 +345,8 @@ def figures(results: dict[int, dict[str, Any]], tests: Suite, scenes: dict[int, 
         layout_known=sum(v in scenes for v, r in results.items() if "error" not in r),
         perception_s=float(np.mean([r["perception_s"] for r in read])) if read else None,
         frame_offsets={str(k): n for k, n in sorted(Counter(r.get("frame_offset", 0) for r in read).items())},
+        # how near whole videos come to the reader's cut-at-the-start threshold (craft_dsl.reader.whole.START_PX)
+        start_px_max=max((r.get("start_px", 0.0) for r in read), default=None),
     )
     return out
 

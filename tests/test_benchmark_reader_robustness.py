@@ -163,9 +163,15 @@ def test_the_whole_script_on_two_videos(rr: ModuleType, users_dataset: Path, tmp
     assert list(data["variants"]) == list(rr.VARIANTS)
     original = data["variants"]["original"]
     assert "reason" not in original and original["figures"]["not_read"] == 0
+    assert original["figures"]["warnings"] == 0  # whole runs of the dataset's 200 steps (its generation_config)
     for name, row in data["variants"].items():
         assert "figures" in row or "reason" in row, name
         if rr.VARIANTS[name].copied:
             assert len(list((tmp_path / "kept" / name).iterdir())) == 2
     printed = capsys.readouterr().out
     assert "| original |" in printed and "| fps-10 |" in printed
+
+
+def test_the_run_length_is_the_dataset_s_own(rr: ModuleType, users_dataset: Path, tmp_path: Path) -> None:
+    assert rr.load_suite(users_dataset).steps == 200  # tests/conftest.py: USERS_DATASET's steps
+    assert rr.run_steps(tmp_path) == 600  # no generation_config.json: CRAFT's 10 s

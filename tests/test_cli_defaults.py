@@ -77,7 +77,7 @@ def test_read_writes_the_same_bytes_for_any_number_of_workers(users_dataset: Pat
     outputs = []
     for workers in ("1", "4"):  # 4: more workers than videos (2 processes)
         out = tmp_path / f"w{workers}"
-        assert main(["read", "--videos", str(users_dataset / "videos"), "--questions", str(questions),
+        assert main(["read", "--steps", "200", "--videos", str(users_dataset / "videos"), "--questions", str(questions),
                      "--out", str(out / "preds.json"), "--details", str(out / "details.jsonl"),
                      "--perceived", str(out / "perceived"), "--workers", workers, "--quiet"]) == 0
         outputs.append({p.relative_to(out).as_posix(): p.read_bytes() for p in sorted(out.rglob("*")) if p.is_file()})

@@ -58,7 +58,8 @@ def test_read_warns_of_a_cut_video_and_flags_its_answers(users_dataset: Path, tm
     questions.write_text(json.dumps([{k: r[k] for k in ("video_index", "question_index", "question")}
                                      for r in records if r["video_index"] == video]))
     details = tmp_path / "details.jsonl"
-    assert main(["read", "--videos", str(folder), "--questions", str(questions), "--out", str(tmp_path / "p.json"),
+    assert main(["read", "--steps", "200",
+                 "--videos", str(folder), "--questions", str(questions), "--out", str(tmp_path / "p.json"),
                  "--details", str(details), "--workers", "1"]) == 0
     err = capsys.readouterr().err
     assert f"warning: video {video} (" in err and "the video is not whole" in err and "1 videos not whole" in err

@@ -144,7 +144,8 @@ def test_details_carry_the_confidence_and_predictions_stay_answers(users_dataset
     questions.write_text(json.dumps([{k: r[k] for k in ("video_index", "question_index", "question")}
                                      for r in records if r["video_index"] == video]))
     preds, details = tmp_path / "preds.json", tmp_path / "details.jsonl"
-    assert main(["read", "--videos", str(users_dataset / "videos"), "--questions", str(questions), "--out",
+    assert main(["read", "--steps", "200",
+                 "--videos", str(users_dataset / "videos"), "--questions", str(questions), "--out",
                  str(preds), "--details", str(details), "--workers", "1", "--quiet"]) == 0
     predictions = json.loads(preds.read_text())
     lines = [json.loads(line) for line in details.read_text().splitlines()]

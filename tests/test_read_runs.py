@@ -54,7 +54,8 @@ def stripped(users_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> P
 def reference(stripped: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, bytes]:
     """The files of an uninterrupted run in this process (one worker)."""
     out = tmp_path_factory.mktemp("reference")
-    assert main(["read", "--videos", str(stripped / "videos"), "--questions", str(stripped / "questions.json"),
+    assert main(["read", "--steps", "200",
+                 "--videos", str(stripped / "videos"), "--questions", str(stripped / "questions.json"),
                  "--out", str(out / "preds.json"), "--details", str(out / "details.jsonl"), "--workers", "1",
                  "--quiet"]) == 0
     assert not journal_path(out / "preds.json").exists()
@@ -229,7 +230,8 @@ def test_read_needs_videos_and_refuses_an_output_that_is_a_folder(tmp_path: Path
 
 
 def _read_command(stripped: Path, out: Path, workers: int, *extra: str) -> list[str]:
-    return [sys.executable, "-m", "craft_dsl", "read", "--videos", str(stripped / "videos"), "--questions",
+    return [sys.executable, "-m", "craft_dsl", "read", "--steps", "200",
+            "--videos", str(stripped / "videos"), "--questions",
             str(stripped / "questions.json"), "--out", str(out / "preds.json"), "--details",
             str(out / "details.jsonl"), "--workers", str(workers), *extra]
 
@@ -328,7 +330,8 @@ class StandIn:
     def __init__(self, raise_at: dict[int, BaseException] | None = None) -> None:
         self.read: list[int] = []
         self.paths: list[str] = []
-        self.votes: list[Any] = []  # the last argument of each call: --votes
+        self.votes: list[Any] = []  # --votes of each call
+        self.steps: list[Any] = []  # --steps of each call
         self.raise_at = raise_at or {}
 
     def __call__(self, path: str, questions: list[Question], *args: Any) -> dict[str, Any]:
@@ -337,7 +340,9 @@ class StandIn:
             raise self.raise_at[index]
         self.read.append(index)
         self.paths.append(path)
-        self.votes.append(args[-1])
+        _decoder, _distribution, _samples, votes, steps = args
+        self.votes.append(votes)
+        self.steps.append(steps)
         return {"path": path, "answers": [Answer(q, "True", None, f"program {q.key}") for q in questions],
                 "scene": json.dumps({"video": index}), "timings": {"perception": 0.5}}
 
@@ -411,6 +416,18 @@ def test_votes_are_an_input_of_the_run(dummy: Path, monkeypatch: pytest.MonkeyPa
     with pytest.raises(SystemExit):
         _read(dummy, dummy / "other.json", "--votes", "-1")
     assert "--votes: expected a whole number >= 0, got '-1'" in capsys.readouterr().err
+
+
+def test_the_run_length_is_an_input_of_the_run(dummy: Path, monkeypatch: pytest.MonkeyPatch,
+                                               capsys: pytest.CaptureFixture[str]) -> None:
+    out = dummy / "preds.json"
+    _interrupted(dummy, monkeypatch, out, VIDEOS[1])
+    capsys.readouterr()
+    assert _read(dummy, out, "--quiet", "--steps", "200") == 2  # whole videos of 600 steps may be cut at 200
+    assert "the journal of another run (--steps 600 there, 200 here)" in capsys.readouterr().err
+    stand_in = StandIn()
+    monkeypatch.setattr(read_cli, "read_video", stand_in)
+    assert _read(dummy, out, "--quiet") == 0 and stand_in.steps == [600, 600]
 
 
 def test_a_torn_last_line_is_dropped_and_its_video_read_again(dummy: Path, monkeypatch: pytest.MonkeyPatch,

@@ -320,7 +320,8 @@ def test_read_answers_from_videos_and_question_texts_alone(users_dataset: Path, 
     work = _stripped_copy(users_dataset, tmp_path / "stripped")
     assert sorted(p.name for p in work.iterdir()) == ["questions.json", "videos"]
     preds = tmp_path / "preds.json"
-    assert main(["read", "--videos", str(work / "videos"), "--questions", str(work / "questions.json"), "--out",
+    assert main(["read", "--steps", "200",
+                 "--videos", str(work / "videos"), "--questions", str(work / "questions.json"), "--out",
                  str(preds), "--perceived", str(tmp_path / "perceived"), "--quiet"]) == 0
     predictions = json.loads(preds.read_text())
     records = json.loads((users_dataset / "dataset_minimal.json").read_text())
@@ -345,7 +346,8 @@ def test_read_reports_a_broken_video_and_keeps_the_others(users_dataset: Path, t
     keep = {int(videos[0].stem), int(videos[1].stem)}
     (work / "questions.json").write_text(json.dumps([q for q in questions if q["video_index"] in keep]))
     preds = tmp_path / "preds.json"
-    code = main(["read", "--videos", str(work / "videos"), "--questions", str(work / "questions.json"), "--out",
+    code = main(["read", "--steps", "200",
+                 "--videos", str(work / "videos"), "--questions", str(work / "questions.json"), "--out",
                  str(preds), "--quiet"])
     assert code == 2
     err = capsys.readouterr().err
@@ -362,7 +364,8 @@ def test_read_runs_as_a_command(users_dataset: Path, tmp_path: Path) -> None:
     first = questions[0]["video_index"]
     (work / "questions.json").write_text(json.dumps([q for q in questions if q["video_index"] == first]))
     preds = tmp_path / "preds.json"
-    proc = subprocess.run([sys.executable, "-m", "craft_dsl", "read", "--videos", str(work / "videos"),
+    proc = subprocess.run([sys.executable, "-m", "craft_dsl", "read", "--steps", "200",
+                           "--videos", str(work / "videos"),
                            "--questions", str(work / "questions.json"), "--out", str(preds), "--workers", "2"],
                           capture_output=True, text=True, check=False)
     assert proc.returncode == 0, proc.stderr
@@ -406,7 +409,8 @@ def test_read_gives_probabilities_with_the_distribution(users_dataset: Path, tmp
     first = questions[0]["video_index"]
     (work / "questions.json").write_text(json.dumps([q for q in questions if q["video_index"] == first]))
     preds, details = tmp_path / "preds.json", tmp_path / "details.jsonl"
-    assert main(["read", "--videos", str(work / "videos"), "--questions", str(work / "questions.json"), "--out",
+    assert main(["read", "--steps", "200",
+                 "--videos", str(work / "videos"), "--questions", str(work / "questions.json"), "--out",
                  str(preds), "--details", str(details), "--distribution", "--samples", "16", "--quiet"]) == 0
     predictions = json.loads(preds.read_text())
     lines = [json.loads(line) for line in details.read_text().splitlines()]

@@ -16,6 +16,7 @@ import json
 import sys
 import time
 from collections import defaultdict
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -23,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 from ..atomic import atomic_path, write_json_atomic
 from ..errors import CraftError, ReaderError
 from ..parallel import add_workers_option
-from .video import DECODERS
+from .video import DECODERS, RUN_STEPS
 from .votes import VOTES
 
 if TYPE_CHECKING:
@@ -31,12 +32,13 @@ if TYPE_CHECKING:
 
 
 def read_video(path: str, questions: list[Question], decoder: str = "auto", distribution: bool = False,
-               samples: int = 64, votes: int = VOTES) -> dict[str, Any]:
+               samples: int = 64, votes: int = VOTES, steps: int = RUN_STEPS) -> dict[str, Any]:
     """Perceive one video and answer its questions (the unit of work of ``--workers``); ``votes``: perturbed
-    replays per counterfactual question (:mod:`craft_dsl.reader.votes`)."""
+    replays per counterfactual question (:mod:`craft_dsl.reader.votes`); ``steps``: the run's length, against which
+    the video is checked for being whole (:mod:`craft_dsl.reader.whole`)."""
     from .answer import answer_questions
     from .perceive import perceive_video
-    from .video import incomplete
+    from .whole import why_not_whole
 
     t = time.perf_counter()
     try:
@@ -49,7 +51,7 @@ def read_video(path: str, questions: list[Question], decoder: str = "auto", dist
     result: dict[str, Any] = {"path": path, "answers": answers, "scene": perception.scene.dumps(),
                               "timings": {**perception.timings, "perception": perceived - t,
                                           "answering": done - perceived}}
-    why = incomplete(path, perception.scene.video.frames)
+    why = why_not_whole(path, perception, steps)
     if why is not None:  # read all the same, and every answer says so (its confidence at most a guess's)
         from .confidence import rescore
 
@@ -104,7 +106,7 @@ def cmd_read(args: argparse.Namespace) -> int:
     videos = find_videos(args.videos or [], order, args.video_map)
     header = run_header(((q.video_index, q.question_index, q.text) for q in questions), videos,
                         {"distribution": args.distribution, "samples": args.samples, "decoder": args.decoder,
-                         "votes": args.votes})
+                         "votes": args.votes, "steps": args.steps})
     failed: dict[int, str] = {}
 
     def report(message: str) -> None:
@@ -117,8 +119,8 @@ def cmd_read(args: argparse.Namespace) -> int:
         done = {v for v, record in journal.records.items() if v in by_video and _resumable(record, args.perceived)}
         if done and not args.quiet:
             report(f"resuming {journal.path}: {len(done)} of {len(order)} videos already read")
-        jobs = [(v, (str(videos[v]), by_video[v], args.decoder, args.distribution, args.samples, args.votes))
-                for v in order if v not in done]
+        jobs = [(v, (str(videos[v]), by_video[v], args.decoder, args.distribution, args.samples, args.votes,
+                     args.steps)) for v in order if v not in done]
 
         def finished(index: int, result: dict[str, Any]) -> None:
             if "error" in result:
@@ -182,14 +184,19 @@ def cmd_read(args: argparse.Namespace) -> int:
     return 2 if failed else 0
 
 
-def _non_negative(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 0, got {text!r}")
-    return value
+def _whole_number(least: int) -> Callable[[str], int]:
+    """An argparse type: a whole number of at least ``least``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = least - 1
+        if value < least:
+            raise argparse.ArgumentTypeError(f"expected a whole number >= {least}, got {text!r}")
+        return value
+
+    return parse
 
 
 def add_commands(sub: Any) -> None:
@@ -221,9 +228,12 @@ def add_commands(sub: Any) -> None:
     p.add_argument("--distribution", action="store_true",
                    help="answer with the mode of each question's answer distribution and give its probability")
     p.add_argument("--samples", type=int, default=64, help="Monte Carlo readings of an answer distribution")
-    p.add_argument("--votes", type=_non_negative, default=VOTES, metavar="N",
+    p.add_argument("--votes", type=_whole_number(0), default=VOTES, metavar="N",
                    help=f"perturbed replays that vote on each counterfactual question's answer with the reader's "
                         f"own (default {VOTES}; 0: the replay alone)")
+    p.add_argument("--steps", type=_whole_number(1), default=RUN_STEPS, metavar="N",
+                   help=f"steps of the run each video shows (default {RUN_STEPS}: CRAFT's 10 s; a dataset made with "
+                        f"craft-dsl generate --steps N shows N): a video whose frames end earlier is not whole")
     p.add_argument("--decoder", choices=DECODERS, default="auto",
                    help="video decoder: PyAV in-process (auto), or imageio-ffmpeg's ffmpeg process")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")

@@ -153,6 +153,7 @@ class Reconstruction:
     refits: int = 0
     anchors: int = 0  # restarts of straying bodies from the video
     final_px: float = 0.0  # mean distance (pixels, capped as in the score) of the kept run from the tracks
+    start_px: float = 0.0  # the same over the first fit's frames, of the run fitted from the start (no restarts)
     tried: tuple[str, ...] = ()  # the engines reconstructed with (reconstruct_best), the kept one among them
 
 
@@ -865,6 +866,7 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
     sim, worst, first = best.simulation, best.worst, best.first
     fit = StartFit(model, static_values, attributes,
                    {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}, eng, rows=shown)
+    start_px = _score(sim, fit, start_frames(shown))
     anchors = 0
 
     def refresh(which: Sequence[int]) -> None:
@@ -900,7 +902,7 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
         if not progressed:
             break
     return Reconstruction(sim, fit.values(best.units, best.choice), list(slots), list(attributes), worst, first,
-                          best.window, best.refits, anchors, _score(sim, fit, frames))
+                          best.window, best.refits, anchors, _score(sim, fit, frames), start_px)
 
 
 # -- which physics: the engine whose runs follow the video best ------------------------------------------------

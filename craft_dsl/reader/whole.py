@@ -1,0 +1,60 @@
+"""Whether a video shows a whole CRAFT run, and if not, why.
+
+A video that is not whole is still read, but its answers say so (``Answer.warning``, a confidence no higher than a
+guess's): answers about the end of the video, or about events the missing part held, are those of the part it
+shows. Three things say a video is not whole:
+
+* the file: an MPEG-1 stream without its end code, a container holding fewer frames than it states
+  (:func:`craft_dsl.reader.video.incomplete`);
+* its length: its frames show fewer steps than the run has (:func:`cut_short`: ``steps``, 600 for CRAFT's 10 s;
+  ``craft-dsl generate --steps N`` writes runs of N steps). A file re-encoded from a cut copy is whole as a file
+  but not as a run;
+* its start: no run from the layout's start positions reproduces its first frames (:func:`cut_at_start`): the
+  video was cut at the start (its first frame shows bodies in flight), or it is not of a layout the reader knows.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..render.raster import SIM_FPS
+from .perceive import Perception
+from .video import RUN_STEPS, incomplete
+
+#: Pixels: the run fitted from the start is further than this from the tracks, on average over its first fit's
+#: frames, in a video cut at the start. Whole videos measured: at most 1.9 px (files, H.264 copies); a video cut
+#: 1 s into its run: 9-15 px.
+START_PX = 5.0
+
+
+def cut_short(frame_steps: np.ndarray, steps: int = RUN_STEPS) -> str | None:
+    """Why frames showing steps ``frame_steps`` are not a whole run of ``steps`` steps (None: they are): the last
+    frame shows a step more than a frame's gap before the run's end."""
+    rows = np.asarray(frame_steps)
+    if not rows.size:
+        return None
+    gap = int(np.max(np.diff(rows), initial=1))
+    last = int(rows[-1])
+    if last + gap >= steps:
+        return None
+    return (f"its frames end at step {last} ({last / SIM_FPS:.1f} s) of the run's {steps} ({steps / SIM_FPS:.1f} s): "
+            f"the video was cut short (or shows a run of another length: --steps N)")
+
+
+def cut_at_start(start_px: float) -> str | None:
+    """Why a video whose run, fitted from the layout's start, is ``start_px`` from its first frames' tracks does
+    not show the start of a run (None: it does)."""
+    if start_px <= START_PX:
+        return None
+    return (f"no run from the layout's start positions reproduces its first frames ({start_px:.1f} px from the "
+            f"tracks; a whole video's is within {START_PX:g} px): the video was cut at the start, or is not of "
+            f"this layout")
+
+
+def why_not_whole(path: str, perception: Perception, steps: int = RUN_STEPS) -> str | None:
+    """The reasons (joined) why the video at ``path``, read as ``perception``, is not a whole run of ``steps``
+    steps; None when nothing says so."""
+    # a file cut short is cut short as a run too: the file's reason says which
+    length = incomplete(path, perception.scene.video.frames) or cut_short(perception.frame_steps, steps)
+    found = [r for r in (length, cut_at_start(perception.reconstruction.start_px)) if r is not None]
+    return "; ".join(found) if found else None
