@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+from pathlib import Path
+
 import numpy as np
 
 from craft_dsl.reader.perceive import Perception
@@ -17,3 +20,13 @@ def tracks_px(perception: Perception) -> dict[tuple[str, str, str], np.ndarray]:
             pos = traj.positions[1:, traj.column(b.uid)]
             out[(b.shape, b.color, b.size)] = np.stack(world_to_pixel(pos[:, 0], pos[:, 1]), axis=1)
     return out
+
+
+def reencoded(source: Path, target: Path, video_filter: str = "null") -> Path:
+    """The MPEG-1 video ``source`` re-encoded to ``target`` (H.264, crf 18) through ffmpeg's ``video_filter``."""
+    import imageio_ffmpeg
+
+    subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error", "-f", "mpegvideo", "-i",
+                    str(source), "-vf", video_filter, "-c:v", "libx264", "-crf", "18", "-pix_fmt", "yuv420p",
+                    str(target)], check=True)
+    return target

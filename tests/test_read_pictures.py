@@ -4,11 +4,11 @@ and read as a square."""
 from __future__ import annotations
 
 import json
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from reader_helpers import reencoded
 
 from craft_dsl.physics import simulate
 from craft_dsl.reader.answer import Question, answer_questions
@@ -84,15 +84,6 @@ def test_find_picture_refuses_what_is_not_frames() -> None:
         find_picture(np.zeros((4, 4, 3), dtype=np.uint8))
 
 
-def _ffmpeg(source: Path, target: Path, video_filter: str) -> Path:
-    import imageio_ffmpeg
-
-    subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error", "-f", "mpegvideo", "-i",
-                    str(source), "-vf", video_filter, "-c:v", "libx264", "-crf", "18", "-pix_fmt", "yuv420p",
-                    str(target)], check=True)
-    return target
-
-
 @pytest.fixture(scope="module")
 def video(users_dataset: Path) -> Path:
     return sorted((users_dataset / "videos").rglob("*.mpg"))[0]
@@ -100,7 +91,7 @@ def video(users_dataset: Path) -> Path:
 
 @pytest.mark.parametrize("decoder", [d for d in DECODERS if d != "auto"])
 def test_a_pillarboxed_video_decodes_to_its_picture(video: Path, tmp_path: Path, decoder: str) -> None:
-    boxed = _ffmpeg(video, tmp_path / "boxed.mp4", "scale=480:480:flags=bicubic,pad=640:480:80:0:black")
+    boxed = reencoded(video, tmp_path / "boxed.mp4", "scale=480:480:flags=bicubic,pad=640:480:80:0:black")
     frames, found = decode_picture(boxed, decoder, size=256)  # type: ignore[arg-type]
     assert found == Picture(80, 0, 480, 480, 640, 480, "boxed")
     original = decode(video).astype(np.int16)
@@ -112,7 +103,7 @@ def test_a_pillarboxed_video_decodes_to_its_picture(video: Path, tmp_path: Path,
 
 
 def test_both_decoders_cut_and_scale_a_picture_alike(video: Path, tmp_path: Path) -> None:
-    wide = _ffmpeg(video, tmp_path / "wide.mp4", "scale=320:240:flags=bicubic")
+    wide = reencoded(video, tmp_path / "wide.mp4", "scale=320:240:flags=bicubic")
     by_pyav, pyav_picture = decode_picture(wide, "pyav", size=256)
     by_ffmpeg, ffmpeg_picture = decode_picture(wide, "ffmpeg", size=256)
     assert pyav_picture == ffmpeg_picture == Picture(0, 0, 320, 240, 320, 240, "stretched")
@@ -129,7 +120,7 @@ def test_a_video_that_is_not_square_is_read_as_the_original(users_dataset: Path,
                if r["video_index"] == index]
     questions = [Question(index, r["question_index"], r["question"]) for r in records]
     original = perceive_video(video)
-    copy = perceive_video(_ffmpeg(video, tmp_path / "copy.mp4", video_filter))
+    copy = perceive_video(reencoded(video, tmp_path / "copy.mp4", video_filter))
     assert copy.picture is not None and copy.scene.meta["picture"] == copy.picture.to_json()
     assert original.picture is None and "picture" not in original.scene.meta
     assert copy.layout.scene == original.layout.scene

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from reader_helpers import reencoded
 from scipy import ndimage as ndi
 
 from craft_dsl.reader.answer import Question, answer_questions
@@ -32,12 +32,7 @@ from craft_dsl.world import dynamic_geometry
 
 
 def _rescaled(source: Path, target: Path, width: int, height: int) -> Path:
-    import imageio_ffmpeg
-
-    subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error", "-f", "mpegvideo", "-i",
-                    str(source), "-vf", f"scale={width}:{height}:flags=bicubic", "-c:v", "libx264", "-crf", "18",
-                    str(target)], check=True)
-    return target
+    return reencoded(source, target, f"scale={width}:{height}:flags=bicubic")
 
 
 @pytest.fixture(scope="module")

@@ -4,11 +4,11 @@ cut) is not whole as a run."""
 from __future__ import annotations
 
 import json
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from reader_helpers import reencoded
 
 from craft_dsl.cli import main
 from craft_dsl.reader.confidence import default_model
@@ -42,23 +42,13 @@ def test_a_start_that_no_run_reproduces_is_a_cut_at_the_start() -> None:
     assert why is not None and "12.3 px" in why and "cut at the start" in why
 
 
-def _copy(source: Path, target: Path, video_filter: str = "null") -> Path:
-    """``source`` re-encoded (H.264) through ffmpeg's ``video_filter``: a whole file, whatever the filter cut."""
-    import imageio_ffmpeg
-
-    subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error", "-f", "mpegvideo", "-i",
-                    str(source), "-vf", video_filter, "-c:v", "libx264", "-crf", "18", "-pix_fmt", "yuv420p",
-                    str(target)], check=True)
-    return target
-
-
 @pytest.fixture(scope="module")
 def video(users_dataset: Path) -> Path:
     return sorted((users_dataset / "videos").rglob("*.mpg"))[0]
 
 
 def test_a_whole_video_and_its_re_encoded_copy_are_whole(video: Path, tmp_path: Path) -> None:
-    for path in (video, _copy(video, tmp_path / "copy.mp4")):
+    for path in (video, reencoded(video, tmp_path / "copy.mp4")):
         perception = perceive_video(path)
         assert why_not_whole(str(path), perception, steps=STEPS) is None
         assert perception.reconstruction.start_px < 1.0 and perception.scene.meta["start_px"] < 1.0
@@ -67,7 +57,7 @@ def test_a_whole_video_and_its_re_encoded_copy_are_whole(video: Path, tmp_path: 
 
 
 def test_a_video_re_encoded_after_a_cut_at_the_start_says_both(video: Path, tmp_path: Path) -> None:
-    cut = _copy(video, tmp_path / "late.mp4", "trim=start_frame=60,setpts=PTS-STARTPTS")  # from its second 1
+    cut = reencoded(video, tmp_path / "late.mp4", "trim=start_frame=60,setpts=PTS-STARTPTS")  # from its second 1
     perception = perceive_video(cut)
     assert perception.reconstruction.start_px > START_PX
     why = why_not_whole(str(cut), perception, steps=STEPS)
@@ -85,7 +75,7 @@ def test_read_warns_of_a_video_cut_short_as_a_run_and_flags_its_answers(users_da
                                      for r in records]))
     folder = tmp_path / "videos"
     folder.mkdir()
-    _copy(video, folder / f"{index:06d}.mp4", "trim=end_frame=120")  # a whole file of a run cut after 2 s
+    reencoded(video, folder / f"{index:06d}.mp4", "trim=end_frame=120")  # a whole file of a run cut after 2 s
     details = tmp_path / "details.jsonl"
     assert main(["read", "--videos", str(folder), "--questions", str(questions), "--out", str(tmp_path / "p.json"),
                  "--details", str(details), "--workers", "1", "--steps", str(STEPS)]) == 0
