@@ -14,7 +14,7 @@ from craft_dsl.physics import simulate
 from craft_dsl.reader.answer import Question, answer_questions
 from craft_dsl.reader.perceive import perceive_video
 from craft_dsl.reader.picture import BAR_TOLERANCE, Picture, find_picture, slack
-from craft_dsl.reader.video import DECODERS, decode, decode_picture, decode_sized
+from craft_dsl.reader.video import DECODERS, decode, decode_sized, decode_video
 from craft_dsl.render.raster import frame
 
 
@@ -92,7 +92,8 @@ def video(users_dataset: Path) -> Path:
 @pytest.mark.parametrize("decoder", [d for d in DECODERS if d != "auto"])
 def test_a_pillarboxed_video_decodes_to_its_picture(video: Path, tmp_path: Path, decoder: str) -> None:
     boxed = reencoded(video, tmp_path / "boxed.mp4", "scale=480:480:flags=bicubic,pad=640:480:80:0:black")
-    frames, found = decode_picture(boxed, decoder, size=256)  # type: ignore[arg-type]
+    decoded = decode_video(boxed, decoder, size=256)  # type: ignore[arg-type]
+    frames, found = decoded.frames, decoded.picture
     assert found == Picture(80, 0, 480, 480, 640, 480, "boxed")
     original = decode(video).astype(np.int16)
     assert frames.shape == original.shape
@@ -104,8 +105,8 @@ def test_a_pillarboxed_video_decodes_to_its_picture(video: Path, tmp_path: Path,
 
 def test_both_decoders_cut_and_scale_a_picture_alike(video: Path, tmp_path: Path) -> None:
     wide = reencoded(video, tmp_path / "wide.mp4", "scale=320:240:flags=bicubic")
-    by_pyav, pyav_picture = decode_picture(wide, "pyav", size=256)
-    by_ffmpeg, ffmpeg_picture = decode_picture(wide, "ffmpeg", size=256)
+    pyav, ffmpeg = decode_video(wide, "pyav", size=256), decode_video(wide, "ffmpeg", size=256)
+    (by_pyav, pyav_picture), (by_ffmpeg, ffmpeg_picture) = (pyav.frames, pyav.picture), (ffmpeg.frames, ffmpeg.picture)
     assert pyav_picture == ffmpeg_picture == Picture(0, 0, 320, 240, 320, 240, "stretched")
     assert by_pyav.shape == by_ffmpeg.shape == (len(decode(video)), 256, 256, 3)
     assert float(np.abs(by_pyav.astype(np.int16) - by_ffmpeg.astype(np.int16)).mean()) < 0.5

@@ -53,7 +53,7 @@ from .track import (
     track,
     verify_shape,
 )
-from .video import Decoder, FrameRate, checked_rate, decode_picture, frame_rate, steps_shown
+from .video import Decoder, FrameRate, checked_rate, decode_video, frame_rate, steps_shown, timed_steps
 
 
 @dataclass
@@ -69,6 +69,7 @@ class Perception:
     frame_steps: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # step shown by each frame
     frame_offset: int = 0  # steps each frame shows earlier than the rate's rule (measured or given)
     picture: Picture | None = None  # where the picture lies in frames that are not square (None: the whole frame)
+    frames_missing: int = 0  # frames missing inside the video, by their times (each frame read at its own time)
 
 
 def frame_steps_of(frames: int, fps: float | None = None, frame_steps: Sequence[int] | np.ndarray | None = None
@@ -241,17 +242,32 @@ def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scen
     read as the square picture they hold (:mod:`craft_dsl.reader.picture`; where it was found: ``picture`` and the
     scene's ``meta["picture"]``). Its frame rate is measured
     (:func:`~craft_dsl.reader.video.frame_rate`) unless ``fps`` or ``frame_steps`` state it, and so is the step its
-    first frame shows unless ``frame_offset`` or ``frame_steps`` state it."""
+    first frame shows unless ``frame_offset`` or ``frame_steps`` state it. Where the frames' times show frames
+    missing inside the video (:func:`~craft_dsl.reader.video.timed_steps`), each frame is read at the step its time
+    shows (``frames_missing``, and ``meta["frames_missing"]``, ``meta["first_gap_s"]``)."""
     timings: dict[str, float] = {}
     t = time.perf_counter()
     # another size is read at the reader's size; frames that are not square, as the square picture they hold
-    frames, picture = decode_picture(path, decoder, size=DEFAULT_SIZE)
-    rate = frame_rate(path, len(frames)) if fps is None and frame_steps is None else None
+    decoded = decode_video(path, decoder, size=DEFAULT_SIZE)
+    frames, picture = decoded.frames, decoded.picture
+    timed = timed_steps(decoded.times) if fps is None and frame_steps is None else None
+    rate: FrameRate | None = None
+    if timed is not None:  # frames missing inside the video: each frame read at the step its time shows
+        frame_steps = timed.steps
+        rate = FrameRate(timed.fps, "stated", f"the frames' times ({timed.missing} frames missing)")
+    elif fps is None and frame_steps is None:
+        rate = frame_rate(path, len(frames))
+        fps = rate.fps
     timings["decode"] = time.perf_counter() - t
-    perception = perceive_frames(frames, scene, timings, engines, rate.fps if rate is not None else fps, frame_steps,
-                                 rate, source_size=picture.side, frame_offset=frame_offset)
+    perception = perceive_frames(frames, scene, timings, engines, fps, frame_steps, rate, source_size=picture.side,
+                                 frame_offset=frame_offset)
+    meta: dict[str, Any] = {}
     if picture.how != "whole":  # where the picture was found in frames that are not square
         perception.picture = picture
-        perception.scene = perception.scene.model_copy(
-            update={"meta": {**(perception.scene.meta or {}), "picture": picture.to_json()}})
+        meta["picture"] = picture.to_json()
+    if timed is not None:
+        perception.frames_missing = timed.missing
+        meta.update(frames_missing=timed.missing, first_gap_s=round(timed.first_gap, 3))
+    if meta:
+        perception.scene = perception.scene.model_copy(update={"meta": {**(perception.scene.meta or {}), **meta}})
     return perception

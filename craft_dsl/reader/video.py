@@ -32,7 +32,7 @@ import numbers
 import os
 import re
 import subprocess
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -64,19 +64,20 @@ def _check_file(path: Path) -> None:
         raise ReaderError(f"{path}: the video file is empty")
 
 
-def _decode_pyav(path: Path, size: int | None = None) -> tuple[np.ndarray, Picture]:
+def _decode_pyav(path: Path, size: int | None = None) -> Decoded:
     import av
 
+    raw_mpeg = path.suffix.lower() == ".mpg"
     try:
-        fmt = "mpegvideo" if path.suffix.lower() == ".mpg" else None
-        container = av.open(str(path), format=fmt)
+        container = av.open(str(path), format="mpegvideo" if raw_mpeg else None)
     except Exception as err:  # noqa: BLE001 - PyAV raises its own error classes
         raise ReaderError(f"{path}: cannot be decoded ({err})") from None
+    times: list[float | None] = []
     try:
         stream = container.streams.video[0]
         stream.thread_type = "NONE"
         width, height = int(stream.width), int(stream.height)
-        decoded = container.decode(stream)
+        decoded = _timed(container.decode(stream), times)
         if width == height:
             picture = Picture(0, 0, width, height, width, height, "whole")
             frames = _FrameBuffer(_expected_frames(stream), size or width)
@@ -103,7 +104,16 @@ def _decode_pyav(path: Path, size: int | None = None) -> tuple[np.ndarray, Pictu
         container.close()
     if not frames.count:
         raise ReaderError(f"{path}: the video has no frames")
-    return frames.array(), picture
+    # a raw MPEG stream's timestamps are not its frames' (see the module docstring)
+    known = None if raw_mpeg or any(t is None for t in times) else np.array(times, dtype=np.float64)
+    return Decoded(frames.array(), picture, known)
+
+
+def _timed(frames: Iterable[Any], times: list[float | None]) -> Iterator[Any]:
+    """``frames`` (PyAV frames), each one's time (seconds, None where it has none) appended to ``times``."""
+    for f in frames:
+        times.append(None if f.time is None else float(f.time))
+        yield f
 
 
 def _scaling(width: int, height: int, size: int | None) -> dict[str, Any]:
@@ -242,7 +252,7 @@ def _ffmpeg_frames(exe: str, path: Path, width: int, height: int, options: list[
     return data.reshape(-1, height, width, 3)
 
 
-def _decode_ffmpeg(path: Path, size: int | None = None) -> tuple[np.ndarray, Picture]:
+def _decode_ffmpeg(path: Path, size: int | None = None) -> Decoded:
     import imageio_ffmpeg
 
     exe = imageio_ffmpeg.get_ffmpeg_exe()
@@ -254,7 +264,18 @@ def _decode_ffmpeg(path: Path, size: int | None = None) -> tuple[np.ndarray, Pic
     side = size or picture.side
     filters = ",".join(f"{name}={args}" for name, args in _picture_filters(picture, side))
     options = ["-vf", filters] if filters else []
-    return _ffmpeg_frames(exe, path, side, side, options), picture
+    return Decoded(_ffmpeg_frames(exe, path, side, side, options), picture)
+
+
+@dataclass(frozen=True)
+class Decoded:
+    """A decoded video: its RGB frames uint8 [T, H, W, 3], where the picture lies in its own frames, and each frame's
+    time (seconds, from the container; None where the decoder or the file does not give them: the ``ffmpeg``
+    decoder, a raw MPEG stream)."""
+
+    frames: np.ndarray
+    picture: Picture
+    times: np.ndarray | None = None
 
 
 def decode(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | None = None) -> np.ndarray:
@@ -263,19 +284,18 @@ def decode(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | 
     decoded (area averaging when shrinking, bilinear when enlarging). Frames that are not square are read as the
     square picture they hold (:mod:`craft_dsl.reader.picture`: between bars, or stretched), at ``size`` or at the
     picture's side."""
-    return decode_picture(path, decoder, size)[0]
+    return decode_video(path, decoder, size).frames
 
 
 def decode_sized(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | None = None
                  ) -> tuple[np.ndarray, int]:
     """:func:`decode`'s frames and the video's own picture size (pixels, before any rescaling)."""
-    frames, picture = decode_picture(path, decoder, size)
-    return frames, picture.side
+    decoded = decode_video(path, decoder, size)
+    return decoded.frames, decoded.picture.side
 
 
-def decode_picture(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | None = None
-                   ) -> tuple[np.ndarray, Picture]:
-    """:func:`decode`'s frames and where the picture lies in the video's own frames."""
+def decode_video(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | None = None) -> Decoded:
+    """:func:`decode`'s frames, where the picture lies in the video's own frames, and the frames' times."""
     target = Path(path)
     _check_file(target)
     if decoder not in DECODERS:
@@ -373,6 +393,45 @@ def steps_shown(frames: int, fps: float) -> np.ndarray:
     rate = checked_rate(fps)
     k = np.arange(1, frames + 1, dtype=np.float64)
     return np.floor(k * SIM_FPS / rate + 0.5 - 1e-9).astype(np.int64)
+
+
+#: Two frames whose times are further apart than this many of the video's frame intervals have frames missing
+#: between them.
+GAP_INTERVALS = 1.5
+
+
+@dataclass(frozen=True)
+class TimedSteps:
+    """The step each frame shows, from the frames' times, where they show frames missing."""
+
+    steps: np.ndarray  # int64 [frames], strictly increasing from 1
+    missing: int  # frames missing between the frames decoded
+    fps: float  # the rate of the frames that are there (one over the median interval)
+    first_gap: float  # seconds into the video where the first frames are missing
+
+
+def timed_steps(times: np.ndarray | None) -> TimedSteps | None:
+    """The steps frames at ``times`` (seconds) show where their times show frames missing inside the video (an
+    interval over :data:`GAP_INTERVALS` times the median one): frame ``k`` shows step ``round((t_k - t_0 + i) *
+    60)``, ``i`` the mean interval between frames that are not missing, so that at 60 fps the first frame shows step 1
+    as :func:`steps_shown` has it.
+    None where the times are evenly spaced (the rate says the steps), missing, or not those of one frame a step at
+    most (not increasing, or two frames within a step)."""
+    if times is None or times.size < 3:
+        return None
+    intervals = np.diff(times)
+    if np.any(intervals <= 0):
+        return None
+    gaps = intervals > GAP_INTERVALS * float(np.median(intervals))
+    if not gaps.any():
+        return None
+    interval = float(np.mean(intervals[~gaps]))  # a container's rounded times (1 ms in .mkv) average out
+    steps = np.rint((times - times[0] + interval) * SIM_FPS).astype(np.int64)
+    if steps[0] < 1 or np.any(np.diff(steps) <= 0):
+        return None
+    missing = int(np.sum(np.rint(intervals[gaps] / interval) - 1))
+    first = int(np.argmax(gaps))
+    return TimedSteps(steps, missing, checked_rate(1.0 / interval), float(times[first] - times[0] + interval))
 
 
 def infer_rate(frames: int, steps: int = RUN_STEPS) -> float:
