@@ -80,6 +80,7 @@ ENCODINGS = {
     ".mkv": ["-c:v", "ffv1"],
     ".webm": ["-c:v", "libvpx-vp9", "-lossless", "1"],
     ".mov": ["-c:v", "mjpeg", "-q:v", "2"],
+    ".gif": ["-filter_complex", "split[a][b];[a]palettegen[p];[b][p]paletteuse=dither=none"],  # craft-dsl render's
 }
 
 
@@ -157,7 +158,7 @@ def test_the_not_found_message_names_the_index_and_what_was_tried(tmp_path: Path
         find_videos([tmp_path / "a", b3], [3, 7, 9], mapping)
     message = str(err.value)
     assert message.startswith("no video for video_index 7: tried 000007 with the suffix "
-                              ".mpg, .mpeg, .mp4, .avi, .mkv, .webm or .mov under ")
+                              ".mpg, .mpeg, .mp4, .avi, .mkv, .webm, .mov or .gif under ")
     assert f"under {tmp_path / 'a'} (searched recursively)" in message
     assert f"the files given ({b3})" in message
     assert f"--video-map {mapping} (no entry 7)" in message

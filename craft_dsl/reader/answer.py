@@ -32,7 +32,7 @@ from ..types import DslType
 from .votes import VOTES, vote_counterfactuals
 
 #: The containers a video may come in (every one PyAV decodes); of several files of one index, ``.mpg`` is taken.
-VIDEO_SUFFIXES = (".mpg", ".mpeg", ".mp4", ".avi", ".mkv", ".webm", ".mov")
+VIDEO_SUFFIXES = (".mpg", ".mpeg", ".mp4", ".avi", ".mkv", ".webm", ".mov", ".gif")
 #: The header line of a CSV mapping file.
 VIDEO_MAP_HEADER = ("video_index", "path")
 

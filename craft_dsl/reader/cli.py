@@ -208,7 +208,7 @@ def add_commands(sub: Any) -> None:
                     "texts (video_index, question_index, question of each record).",
     )
     p.add_argument("--videos", nargs="+", metavar="PATH",
-                   help="folders holding <id6>.mpg (.mpeg, .mp4, .avi, .mkv, .webm, .mov) videos, searched "
+                   help="folders holding <id6>.mpg (.mpeg, .mp4, .avi, .mkv, .webm, .mov, .gif) videos, searched "
                         "recursively, and/or such video files (default: none; then --video-map names them all)")
     p.add_argument("--video-map", metavar="FILE",
                    help="CSV with the header video_index,path, or JSON {\"<video_index>\": \"path\"}: the video of "

@@ -239,8 +239,9 @@ def _probe_size(path: Path, exe: str) -> tuple[int, int]:
 def _ffmpeg_frames(exe: str, path: Path, width: int, height: int, options: list[str]) -> np.ndarray:
     """Frames [n, height, width, 3] that ffmpeg writes of ``path`` with ``options`` (filters, a frame limit)."""
     fmt = ["-f", "mpegvideo"] if path.suffix.lower() == ".mpg" else []
-    cmd = [exe, "-loglevel", "error", "-threads", "1", *fmt, "-i", str(path), *options, "-f", "rawvideo",
-           "-pix_fmt", "rgb24", "-"]
+    # every decoded frame once (-fps_mode passthrough): no frames repeated or dropped to fill a constant rate
+    cmd = [exe, "-loglevel", "error", "-threads", "1", *fmt, "-i", str(path), *options, "-fps_mode", "passthrough",
+           "-f", "rawvideo", "-pix_fmt", "rgb24", "-"]
     proc = subprocess.run(cmd, capture_output=True, check=False)
     if proc.returncode != 0:
         message = proc.stderr.decode("utf-8", "replace").strip().splitlines()
