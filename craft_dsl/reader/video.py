@@ -18,6 +18,12 @@ second frame ``k`` (0-based) shows the state after ``round((k + 1) * 60 / fps)``
   common rate (:data:`COMMON_RATES`), so that a video missing some frames at the end keeps its rate (590 frames:
   60 fps; 97 frames: 10 fps). More frames than a 60-fps run holds: 60 fps (a longer run).
 
+Frames that are not square hold the square picture boxed between bars or stretched: it is found in the first
+frames (:mod:`craft_dsl.reader.picture`) and cut out and rescaled by FFmpeg's ``crop`` and ``scale`` filters (a PyAV
+filter graph; the ``ffmpeg`` decoder's ``-vf``). Where a container's frame times leave gaps (frames dropped or cut
+out), each frame is read at the step its time shows (:func:`timed_steps`); PyAV gives the times, the ``ffmpeg``
+decoder and raw MPEG streams none.
+
 Rates within 0.2 % of a whole number are that number (NTSC's 59.94 is 60). A rate that does not divide 60 (25,
 24 fps) maps each frame time to the nearest step, as the renderer does. Rates above 60 fps are refused
 (:class:`~craft_dsl.errors.ReaderError`): the simulation has 60 states per second, so such a video repeats frames;
@@ -407,7 +413,7 @@ class TimedSteps:
 
     steps: np.ndarray  # int64 [frames], strictly increasing from 1
     missing: int  # frames missing between the frames decoded
-    fps: float  # the rate of the frames that are there (one over the median interval)
+    fps: float  # the rate of the frames that are there (one over their mean interval)
     first_gap: float  # seconds into the video where the first frames are missing
 
 
