@@ -37,8 +37,9 @@ equal-width bins; the accuracy of the most confident 80%), videos whose layout w
 (guesses: ``fallback`` in ``craft-dsl read --details``), videos read with a warning (not whole), videos not read,
 seconds of perception per video (decoding included) and of encoding per video; then accuracy per paper sub-category
 over the test questions of both parts; then what was checked of each variant's first copy (codec, size, frames; the
-step offset of resampled frames). ``--json OUT`` writes every figure, with each variant's largest
-``start_px`` (how near whole copies come to the reader's cut-at-the-start warning, :mod:`craft_dsl.reader.whole`).
+step offset of resampled frames). ``--json OUT`` writes every figure, with how near whole copies come to the
+reader's cut-at-the-start warning (:mod:`craft_dsl.reader.whole`): the largest distance of one body, and of a
+video's median body, from the run fitted from the layout's start (``start_px_max``, ``start_px_median_max``).
 No randomness: the same inputs give the same figures (timings aside).
 
 Each variant's reading imports ``craft_dsl`` afresh (its worker processes): in a checkout being edited, run it with
@@ -299,7 +300,8 @@ def read_variant(paths: dict[int, Path], tests: Suite, workers: int) -> dict[int
                           "warning": result.get("warning"), "perception_s": result["timings"]["perception"],
                           "scene": perceived.get("scene"),
                           "frame_offset": int((perceived.get("meta") or {}).get("frame_offset", 0)),
-                          "start_px": float((perceived.get("meta") or {}).get("start_px", 0.0))}
+                          "start_px": sorted(float(d) for d in
+                                             ((perceived.get("meta") or {}).get("start_px") or {}).values())}
         print(f"\r  read {len(out)}/{len(jobs)} videos", end="", file=sys.stderr, flush=True)
 
     def crashed(index: int, message: str) -> None:
@@ -345,8 +347,10 @@ def figures(results: dict[int, dict[str, Any]], tests: Suite, scenes: dict[int, 
         layout_known=sum(v in scenes for v, r in results.items() if "error" not in r),
         perception_s=float(np.mean([r["perception_s"] for r in read])) if read else None,
         frame_offsets={str(k): n for k, n in sorted(Counter(r.get("frame_offset", 0) for r in read).items())},
-        # how near whole videos come to the reader's cut-at-the-start threshold (craft_dsl.reader.whole.START_PX)
-        start_px_max=max((r.get("start_px", 0.0) for r in read), default=None),
+        # how near whole videos come to the reader's cut-at-the-start warning (craft_dsl.reader.whole): the largest
+        # distance of one body, and of a video's median body, from the run fitted from the layout's start
+        start_px_max=max((max(r["start_px"]) for r in read if r.get("start_px")), default=None),
+        start_px_median_max=max((float(np.median(r["start_px"])) for r in read if r.get("start_px")), default=None),
     )
     return out
 

@@ -207,7 +207,7 @@ def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: Stat
     meta = {"source": "craft_dsl.reader", "layout_rms": round(layout.rms, 3), "fit_frames": rec.fit_frames,
             "refits": rec.refits, "anchors": rec.anchors,
             "max_stray_px": round(max(rec.stray_px.values(), default=0.0), 3), "mean_stray_px": round(rec.final_px, 3),
-            "start_px": round(rec.start_px, 3),
+            "start_px": {str(uid): round(d, 3) for uid, d in sorted(rec.start_px.items())},
             "engines_tried": list(rec.tried)}
     if rate is not None and rate.fps != 60.0:
         meta.update(video_fps=rate.fps, video_fps_source=rate.source)

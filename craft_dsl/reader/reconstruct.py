@@ -153,7 +153,8 @@ class Reconstruction:
     refits: int = 0
     anchors: int = 0  # restarts of straying bodies from the video
     final_px: float = 0.0  # mean distance (pixels, capped as in the score) of the kept run from the tracks
-    start_px: float = 0.0  # the same over the first fit's frames, of the run fitted from the start (no restarts)
+    # uid -> mean distance (pixels, capped) over the first fit's frames of the run fitted from the start (no restarts)
+    start_px: dict[int, float] = field(default_factory=dict)
     tried: tuple[str, ...] = ()  # the engines reconstructed with (reconstruct_best), the kept one among them
 
 
@@ -557,6 +558,17 @@ def stray(sim: LiveSimulation, fit: StartFit, frames: int, start: int = 0
     return worst, first
 
 
+def body_scores(sim: LiveSimulation, fit: StartFit, frames: int) -> dict[int, float]:
+    """Per uid seen in the first ``frames`` frames: the mean distance (pixels, capped as in :func:`_score`) of the run
+    from its track there."""
+    out = {}
+    for s, d in _distances(sim, fit, frames).items():
+        ok = ~np.isnan(d)
+        if ok.any():
+            out[fit.uids[s]] = float(np.minimum(d[ok], SCORE_CAP_PX).mean())
+    return out
+
+
 def _score(sim: LiveSimulation, fit: StartFit, frames: int, start: int = 0) -> float:
     """How far the run strays from the tracks from frame ``start`` on: mean over bodies and frames seen of the
     distance, capped at :data:`SCORE_CAP_PX` (a body lost for good costs the cap, not its whole flight)."""
@@ -866,7 +878,7 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
     sim, worst, first = best.simulation, best.worst, best.first
     fit = StartFit(model, static_values, attributes,
                    {s: _observations(obj, frames) for obj, s in zip(objects, slots) if s >= 0}, eng, rows=shown)
-    start_px = _score(sim, fit, start_frames(shown))
+    start_px = body_scores(sim, fit, start_frames(shown))
     anchors = 0
 
     def refresh(which: Sequence[int]) -> None:
