@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -60,7 +61,7 @@ import sys
 import tempfile
 import time
 from collections import Counter
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import partial
@@ -77,7 +78,7 @@ from craft_dsl.reader.runs import run_tasks
 from craft_dsl.reader.video import RUN_STEPS
 from craft_dsl.render.raster import frame_steps
 from craft_dsl.verify import answers_agree, read_minimal, read_split, score
-from craft_dsl.verify.categories import CATEGORIES, FAMILIES
+from craft_dsl.verify.categories import CATEGORIES, FAMILIES, family_of
 
 #: ffmpeg options of lossless H.264 in the originals' pixel format.
 LOSSLESS_H264 = ("-c:v", "libx264", "-qp", "0", "-pix_fmt", "yuv420p")
@@ -376,6 +377,48 @@ def _cell(value: float | None, base: float | None) -> str:
     return f"{value:.1f} ({value - base:+.1f})"
 
 
+def paired_difference(base: dict[str, bool], other: dict[str, bool], keys: Iterable[str]
+                      ) -> tuple[int, int, float, float, float]:
+    """Answers ``other`` lost and gained against ``base`` over ``keys`` (both judge the same questions), the
+    difference in points and its 95% interval (normal approximation for paired proportions: the spread comes from
+    the questions that changed)."""
+    chosen = [k for k in keys if k in base]
+    n = len(chosen)
+    lost = sum(base[k] and not other.get(k, False) for k in chosen)
+    gained = sum(not base[k] and other.get(k, False) for k in chosen)
+    if n == 0:
+        return lost, gained, 0.0, 0.0, 0.0
+    diff = (gained - lost) / n
+    half = 1.96 * math.sqrt(max(gained + lost - (gained - lost) ** 2 / n, 0.0)) / n
+    return lost, gained, 100 * diff, 100 * (diff - half), 100 * (diff + half)
+
+
+def paired_lines(rows: dict[str, dict[str, Any]], tests: Suite) -> list[str]:
+    """A table of every variant's answers lost and gained against ``original``, per part and paper column, with
+    the difference's 95% interval: whether a cell over the goal's 2 points is a loss the questions establish."""
+    base = rows.get("original", {}).get("figures")
+    others = [(n, r["figures"]) for n, r in rows.items() if n != "original" and r.get("figures")]
+    if base is None or not others:
+        return []
+    family = {f"{q.video_index}_{q.question_index}": family_of(q.template_id)
+              for q in read_minimal(tests.root / "dataset_minimal.json")}
+    parts = [(split, paper) for split, paper in PARTS if tests.parts[split]]
+    cols = (*FAMILIES, "All")
+    lines = ["", "Against original, the same questions: answers lost / gained, points (95% interval):", "",
+             "| variant | " + " | ".join(f"{paper} {c}" for _s, paper in parts for c in cols) + " |",
+             "|" + "---|" * (1 + len(parts) * len(cols))]
+    for name, fig in others:
+        cells = []
+        for split, _paper in parts:
+            keys = [f"{v}_{q}" for v, q in sorted(tests.parts[split])]
+            for col in cols:
+                chosen = [k for k in keys if col == "All" or family.get(k) == col]
+                lost, gained, diff, low, high = paired_difference(base["correct"], fig["correct"], chosen)
+                cells.append(f"-{lost} +{gained}, {diff:+.1f} ({low:+.1f} to {high:+.1f})")
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    return lines
+
+
 def table(rows: dict[str, dict[str, Any]], tests: Suite) -> str:
     """The Markdown tables of every variant's figures (differences in points against ``original`` if it ran)."""
     base = rows.get("original", {}).get("figures")
@@ -412,6 +455,7 @@ def table(rows: dict[str, dict[str, Any]], tests: Suite) -> str:
                   f"{row['encode_s_per_video']:.2f}" if row.get("encode_s_per_video") is not None else "-"]
         lines.append("| " + " | ".join(cells) + " |")
     # sub-categories, the test questions of both parts
+    lines += paired_lines(rows, tests)
     both = next((r["figures"]["both"] for r in rows.values() if r.get("figures")), None)
     if both is None:
         return "\n".join(lines)

@@ -121,6 +121,31 @@ def test_a_variant_that_cannot_be_made_is_a_row_of_its_own(rr: ModuleType, users
     assert "| x | failed: " in printed
 
 
+def test_a_paired_difference_counts_the_answers_that_changed(rr: ModuleType) -> None:
+    base = {f"0_{i}": True for i in range(98)} | {"0_98": False, "0_99": False}
+    other = dict(base) | {"0_0": False, "0_1": False, "0_2": False, "0_98": True}  # 3 lost, 1 gained
+    lost, gained, diff, low, high = rr.paired_difference(base, other, base)
+    assert (lost, gained) == (3, 1) and diff == pytest.approx(-2.0)
+    half = 100 * 1.96 * np.sqrt(4 - 4 / 100) / 100
+    assert (low, high) == (pytest.approx(-2.0 - half), pytest.approx(-2.0 + half))
+    assert rr.paired_difference(base, base, base)[:3] == (0, 0, 0.0)  # unchanged: no difference
+    assert rr.paired_difference(base, other, ["0_0", "9_9"])[:3] == (1, 0, -100.0)  # keys base lacks are left out
+    assert rr.paired_difference(base, other, [])[:3] == (0, 0, 0.0)
+
+
+def test_the_paired_table_is_printed_against_the_original(rr: ModuleType, users_dataset: Path) -> None:
+    suite = rr.load_suite(users_dataset, 2)
+    keys = sorted(f"{v}_{q}" for v, q in set().union(*suite.parts.values()))
+    assert keys, "the users' dataset has test questions"
+    original = {k: True for k in keys}
+    worse = dict(original) | {keys[0]: False}
+    rows = {"original": {"figures": {"correct": original}}, "worse": {"figures": {"correct": worse}}}
+    lines = rr.paired_lines(rows, suite)
+    assert any(line.startswith("| worse | ") for line in lines)
+    assert "-1 +0" in next(line for line in lines if line.startswith("| worse | "))
+    assert rr.paired_lines({"original": rows["original"]}, suite) == []  # nothing to pair
+
+
 def test_calibration_of_a_variants_answers(rr: ModuleType) -> None:
     # ten answers: the most confident eight hold one wrong one; bins 0.9-1.0 (six, 5 right) and 0.5-0.6 (four, 2)
     confidence = [0.95] * 6 + [0.55] * 4
