@@ -441,8 +441,7 @@ def table(rows: dict[str, dict[str, Any]], tests: Suite) -> str:
             ref = base["parts"][split]["accuracy"] if base is not None and name != "original" else {}
             cells += [_cell(acc[c], ref.get(c)) for c in (*FAMILIES, "All")]
         if base is not None and name != "original":
-            lost = sum(ok and not fig["correct"].get(k, False) for k, ok in base["correct"].items())
-            gained = sum(not ok and fig["correct"].get(k, False) for k, ok in base["correct"].items())
+            lost, gained, *_ = paired_difference(base["correct"], fig["correct"], base["correct"])
             cells.append(f"{lost} / {gained}")
         else:
             cells.append("-")

@@ -250,14 +250,16 @@ def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scen
     # another size is read at the reader's size; frames that are not square, as the square picture they hold
     decoded = decode_video(path, decoder, size=DEFAULT_SIZE)
     frames, picture = decoded.frames, decoded.picture
-    timed = timed_steps(decoded.times) if fps is None and frame_steps is None else None
+    timed = None
     rate: FrameRate | None = None
-    if timed is not None:  # frames missing inside the video: each frame read at the step its time shows
-        frame_steps = timed.steps
-        rate = FrameRate(timed.fps, "stated", f"the frames' times ({timed.missing} frames missing)")
-    elif fps is None and frame_steps is None:
-        rate = frame_rate(path, len(frames))
-        fps = rate.fps
+    if fps is None and frame_steps is None:  # neither stated: measured
+        timed = timed_steps(decoded.times)
+        if timed is not None:  # frames missing inside the video: each frame read at the step its time shows
+            frame_steps = timed.steps
+            rate = FrameRate(timed.fps, "stated", f"the frames' times ({timed.missing} frames missing)")
+        else:
+            rate = frame_rate(path, len(frames))
+            fps = rate.fps
     timings["decode"] = time.perf_counter() - t
     perception = perceive_frames(frames, scene, timings, engines, fps, frame_steps, rate, source_size=picture.side,
                                  frame_offset=frame_offset)

@@ -52,22 +52,15 @@ class Picture:
     frame_height: int
     how: Literal["whole", "boxed", "stretched"]
 
+    @classmethod
+    def whole(cls, width: int, height: int) -> Picture:
+        """The whole ``width`` x ``height`` frame (a square frame's picture)."""
+        return cls(0, 0, width, height, width, height, "whole")
+
     @property
     def side(self) -> int:
         """The size (pixels) the picture is drawn at: its shorter side."""
         return min(self.width, self.height)
-
-    def crop(self, frame: np.ndarray) -> np.ndarray:
-        """The picture's pixels of one frame [H, W, 3] (a view)."""
-        return frame[self.y:self.y + self.height, self.x:self.x + self.width]
-
-    def describe(self) -> str:
-        box = f"{self.width}x{self.height} at ({self.x}, {self.y})"
-        if self.how == "boxed":
-            return f"a square picture {box} of the {self.frame_width}x{self.frame_height} frame, between bars"
-        if self.how == "stretched":
-            return f"a picture {box} of the {self.frame_width}x{self.frame_height} frame, stretched; read as a square"
-        return f"the whole {self.frame_width}x{self.frame_height} frame"
 
     def to_json(self) -> dict[str, object]:
         return {"how": self.how, "box": [self.x, self.y, self.width, self.height],
@@ -106,7 +99,7 @@ def find_picture(frames: np.ndarray) -> Picture:
         raise ValueError(f"expected frames [n, H, W, 3], got shape {frames.shape}")
     height, width = int(frames.shape[1]), int(frames.shape[2])
     if width == height:
-        return Picture(0, 0, width, height, width, height, "whole")
+        return Picture.whole(width, height)
     wide = width > height
     long_side, short_side = max(width, height), min(width, height)
     uniform, colour = _uniform_lines(frames, 1 if wide else 0)

@@ -85,7 +85,7 @@ def _decode_pyav(path: Path, size: int | None = None) -> Decoded:
         width, height = int(stream.width), int(stream.height)
         decoded = _timed(container.decode(stream), times)
         if width == height:
-            picture = Picture(0, 0, width, height, width, height, "whole")
+            picture = Picture.whole(width, height)
             frames = _FrameBuffer(_expected_frames(stream), size or width)
             to_rgb = rgb_converter(**_scaling(width, height, size))
             for f in decoded:
@@ -265,7 +265,7 @@ def _decode_ffmpeg(path: Path, size: int | None = None) -> Decoded:
     exe = imageio_ffmpeg.get_ffmpeg_exe()
     width, height = _probe_size(path, exe)
     if width == height:
-        picture = Picture(0, 0, width, height, width, height, "whole")
+        picture = Picture.whole(width, height)
     else:
         picture = find_picture(_ffmpeg_frames(exe, path, width, height, ["-frames:v", str(PICTURE_FRAMES)]))
     side = size or picture.side
