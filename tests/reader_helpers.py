@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import subprocess
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -22,11 +23,12 @@ def tracks_px(perception: Perception) -> dict[tuple[str, str, str], np.ndarray]:
     return out
 
 
-def reencoded(source: Path, target: Path, video_filter: str = "null") -> Path:
-    """The MPEG-1 video ``source`` re-encoded to ``target`` (H.264, crf 18) through ffmpeg's ``video_filter``."""
+def reencoded(source: Path, target: Path, video_filter: str = "null", options: Sequence[str] = ()) -> Path:
+    """The MPEG-1 video ``source`` re-encoded to ``target`` (H.264, crf 18) through ffmpeg's ``video_filter``, with
+    ffmpeg's output ``options`` besides (``-fps_mode vfr``, say)."""
     import imageio_ffmpeg
 
     subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error", "-f", "mpegvideo", "-i",
-                    str(source), "-vf", video_filter, "-c:v", "libx264", "-crf", "18", "-pix_fmt", "yuv420p",
-                    str(target)], check=True)
+                    str(source), "-vf", video_filter, *options, "-c:v", "libx264", "-crf", "18", "-pix_fmt",
+                    "yuv420p", str(target)], check=True)
     return target

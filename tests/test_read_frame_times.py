@@ -59,14 +59,7 @@ def video(users_dataset: Path) -> Path:
 
 def _dropped(video: Path, target: Path) -> Path:
     """``video`` without its frames 60-71 and 130 (0-based), each other frame at its own time."""
-    import subprocess
-
-    import imageio_ffmpeg
-
-    subprocess.run([imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error", "-f", "mpegvideo", "-i", str(video),
-                    "-vf", r"select=not(between(n\,60\,71)+eq(n\,130))", "-fps_mode", "vfr", "-c:v", "libx264",
-                    "-crf", "18", "-pix_fmt", "yuv420p", str(target)], check=True)
-    return target
+    return reencoded(video, target, r"select=not(between(n\,60\,71)+eq(n\,130))", ("-fps_mode", "vfr"))
 
 
 def test_a_video_with_frames_dropped_is_read_at_its_frames_times(users_dataset: Path, video: Path,
