@@ -7,6 +7,7 @@ import sys
 from dataclasses import replace
 from typing import Any
 
+import numpy as np
 import pytest
 
 from craft_dsl import parse
@@ -60,27 +61,88 @@ def test_an_unknown_engine_is_refused_naming_the_field() -> None:
 # -- the reader's choice ----------------------------------------------------------------------------------------
 
 
-def _fake_reconstruct(distances: dict[str, float], calls: list[str]) -> Any:
-    def fake(_model: Any, _values: Any, _objects: Any, _frames: int, _steps: int, engine: str, _measure: Any
-             ) -> R.Reconstruction:
+def _fake_runs(first_runs: dict[str, tuple[float, int, float]], calls: list[str], full: list[str],
+               frames: int = 600) -> tuple[Any, Any]:
+    """Stand-ins for first_run and reconstruct: each engine's first run (score, first stray frame; ``frames``: none
+    strays) and its whole reconstruction's distance from the tracks."""
+    def first(_model: Any, _values: Any, _objects: Any, _frames: int, _steps: int, engine: str, _measure: Any,
+              _rows: Any) -> R.FirstRun:
         calls.append(engine)
+        score, strays, _final = first_runs[engine]
+        attempt = R._Attempt(np.zeros(0), {}, engine, {}, {0: strays} if strays < frames else {},  # type: ignore[arg-type]
+                             0, 0, score)
+        return R.FirstRun(engine, np.arange(1, frames + 1), [], [], attempt)  # type: ignore[arg-type]
+
+    def rec(_model: Any, _values: Any, _objects: Any, _frames: int, _steps: int, engine: str, _measure: Any,
+            _rows: Any, opening: R.FirstRun) -> R.Reconstruction:
+        assert opening.engine == engine  # each engine goes on from its own first run
+        full.append(engine)
         return R.Reconstruction(simulation=engine, values={}, slots=[], attributes=[],  # type: ignore[arg-type]
-                                final_px=distances[engine])
-    return fake
+                                final_px=first_runs[engine][2])
+    return first, rec
 
 
-@pytest.mark.parametrize(("distances", "tried", "kept"), [
-    ({"pymunk": 0.6, "box2d": 0.3}, ["pymunk"], "pymunk"),  # close enough: no second engine
-    ({"pymunk": 4.0, "box2d": 2.5}, ["pymunk", "box2d"], "box2d"),  # the second follows the video better
-    ({"pymunk": 4.0, "box2d": 3.9}, ["pymunk", "box2d"], "pymunk"),  # within the margin: the first stays
-    ({"pymunk": 4.0, "box2d": 9.0}, ["pymunk", "box2d"], "pymunk"),
+@pytest.mark.parametrize(("first_runs", "tried", "full", "kept"), [
+    # no body strays from pymunk's first run: no second engine
+    ({"pymunk": (0.6, 600, 0.6), "box2d": (0.3, 600, 0.3)}, ["pymunk"], ["pymunk"], "pymunk"),
+    # Box2D's first run is nearer and follows the video throughout / 40 frames longer: Box2D alone goes on
+    ({"pymunk": (4.0, 120, 1.0), "box2d": (1.0, 600, 1.0)}, ["pymunk", "box2d"], ["box2d"], "box2d"),
+    ({"pymunk": (4.0, 120, 1.0), "box2d": (2.5, 160, 1.0)}, ["pymunk", "box2d"], ["box2d"], "box2d"),
+    # not nearer by the margin, or nearer but not longer: pymunk alone goes on
+    ({"pymunk": (4.0, 120, 1.0), "box2d": (3.9, 600, 0.1)}, ["pymunk", "box2d"], ["pymunk"], "pymunk"),
+    ({"pymunk": (4.0, 120, 1.0), "box2d": (9.0, 600, 0.1)}, ["pymunk", "box2d"], ["pymunk"], "pymunk"),
+    # nearer, not longer: both reconstructed, the whole runs decide
+    ({"pymunk": (12.0, 120, 3.0), "box2d": (4.0, 130, 1.0)}, ["pymunk", "box2d"], ["pymunk", "box2d"], "box2d"),
+    ({"pymunk": (12.0, 120, 1.0), "box2d": (4.0, 130, 0.9)}, ["pymunk", "box2d"], ["pymunk", "box2d"], "pymunk"),
 ])
-def test_the_engine_whose_run_follows_the_video_is_kept(monkeypatch: pytest.MonkeyPatch, distances: dict[str, float],
-                                                         tried: list[str], kept: str) -> None:
+def test_the_engine_whose_runs_follow_the_video_is_kept(
+        monkeypatch: pytest.MonkeyPatch, first_runs: dict[str, tuple[float, int, float]], tried: list[str],
+        full: list[str], kept: str) -> None:
     calls: list[str] = []
-    monkeypatch.setattr(R, "reconstruct", _fake_reconstruct(distances, calls))
-    rec = R.reconstruct_best(None, {}, [], 10, 10, engines=["pymunk", "box2d"])  # type: ignore[arg-type]
-    assert calls == tried and list(rec.tried) == tried and rec.simulation == kept
+    reconstructed: list[str] = []
+    first, rec = _fake_runs(first_runs, calls, reconstructed)
+    monkeypatch.setattr(R, "first_run", first)
+    monkeypatch.setattr(R, "reconstruct", rec)
+    out = R.reconstruct_best(None, {}, [], 600, 600, engines=["pymunk", "box2d"])  # type: ignore[arg-type]
+    assert calls == tried and list(out.tried) == tried and reconstructed == full and out.simulation == kept
+
+
+def test_the_later_engine_must_follow_longer_at_the_video_rate() -> None:
+    """ENGINE_LATER_FRAMES is a 60-fps count: at 10 fps 30 steps are 5 frames."""
+    def run(score: float, strays: int, frames: int) -> R.FirstRun:
+        attempt = R._Attempt(np.zeros(0), {}, None, {}, {0: strays}, 0, 0, score)  # type: ignore[arg-type]
+        return R.FirstRun(None, np.arange(1, frames + 1) * (600 // frames), [], [], attempt)  # type: ignore[arg-type]
+    assert R.later_engine_wins(run(4.0, 20, 100), run(1.0, 25, 100))
+    assert not R.later_engine_wins(run(4.0, 20, 100), run(1.0, 24, 100))
+    assert not R.later_engine_wins(run(4.0, 20, 600), run(1.0, 25, 600))
+
+
+def test_each_engine_starts_from_the_same_measurements_and_the_kept_one_keeps_its_own(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """Choosing an engine leaves no trace: the kept engine's reconstruction sees exactly the measurements its own
+    first run made (as if it had been tried alone), never the other engine's."""
+    from craft_dsl.reader.track import TrackedObject
+
+    obj = TrackedObject(color=0, blobs=[])
+    obj.poses[0] = (1.0, 1.0, 0.0)
+    seen: dict[str, set[int]] = {}
+
+    def first(_model: Any, _values: Any, objects: Any, frames: int, _steps: int, engine: str, _measure: Any,
+              _rows: Any) -> R.FirstRun:
+        seen[engine] = set(objects[0].poses)
+        objects[0].poses[{"pymunk": 5, "box2d": 7}[engine]] = (0.0, 0.0, 0.0)  # what this engine's fit measured
+        attempt = R._Attempt(np.zeros(0), {}, engine, {}, {0: 100}, 0, 0, 3.0)  # type: ignore[arg-type]
+        return R.FirstRun(engine, np.arange(1, frames + 1), [], [], attempt)  # type: ignore[arg-type]
+
+    def rec(_model: Any, _values: Any, objects: Any, *_args: Any, opening: R.FirstRun) -> R.Reconstruction:
+        seen["kept"] = set(objects[0].poses)
+        return R.Reconstruction(simulation=opening.engine, values={}, slots=[], attributes=[])  # type: ignore[arg-type]
+
+    monkeypatch.setattr(R, "first_run", first)
+    monkeypatch.setattr(R, "reconstruct", rec)
+    out = R.reconstruct_best(None, {}, [obj], 600, 600, engines=["pymunk", "box2d"])  # type: ignore[arg-type]
+    assert out.simulation == "pymunk"  # box2d's run is neither nearer nor longer
+    assert seen == {"pymunk": {0}, "box2d": {0}, "kept": {0, 5}}
 
 
 def test_without_box2d_the_reader_uses_pymunk_alone(monkeypatch: pytest.MonkeyPatch) -> None:
