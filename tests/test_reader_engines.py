@@ -73,8 +73,10 @@ def _fake_runs(first_runs: dict[str, tuple[float, int, float]], calls: list[str]
                              0, 0, score)
         return R.FirstRun(engine, np.arange(1, frames + 1), [], [], attempt)  # type: ignore[arg-type]
 
-    def rec(_model: Any, _values: Any, _objects: Any, _frames: int, _steps: int, engine: str, _measure: Any,
-            _rows: Any, opening: R.FirstRun) -> R.Reconstruction:
+    def rec(model: Any, values: Any, objects: Any, frames_: int, steps: int, engine: str, measure: Any,
+            rows: Any, opening: R.FirstRun | None = None) -> R.Reconstruction:
+        if opening is None:  # its first run not made yet: made here, as reconstruct does
+            opening = first(model, values, objects, frames_, steps, engine, measure, rows)
         assert opening.engine == engine  # each engine goes on from its own first run
         full.append(engine)
         return R.Reconstruction(simulation=engine, values={}, slots=[], attributes=[],  # type: ignore[arg-type]
@@ -82,29 +84,36 @@ def _fake_runs(first_runs: dict[str, tuple[float, int, float]], calls: list[str]
     return first, rec
 
 
-@pytest.mark.parametrize(("first_runs", "tried", "full", "kept"), [
-    # no body strays from pymunk's first run: no second engine
-    ({"pymunk": (0.6, 600, 0.6), "box2d": (0.3, 600, 0.3)}, ["pymunk"], ["pymunk"], "pymunk"),
-    # Box2D's first run is nearer and follows the video throughout / 40 frames longer: Box2D alone goes on
-    ({"pymunk": (4.0, 120, 1.0), "box2d": (1.0, 600, 1.0)}, ["pymunk", "box2d"], ["box2d"], "box2d"),
-    ({"pymunk": (4.0, 120, 1.0), "box2d": (2.5, 160, 1.0)}, ["pymunk", "box2d"], ["box2d"], "box2d"),
-    # not nearer by the margin, or nearer but not longer: pymunk alone goes on
-    ({"pymunk": (4.0, 120, 1.0), "box2d": (3.9, 600, 0.1)}, ["pymunk", "box2d"], ["pymunk"], "pymunk"),
-    ({"pymunk": (4.0, 120, 1.0), "box2d": (9.0, 600, 0.1)}, ["pymunk", "box2d"], ["pymunk"], "pymunk"),
-    # nearer, not longer: both reconstructed, the whole runs decide
-    ({"pymunk": (12.0, 120, 3.0), "box2d": (4.0, 130, 1.0)}, ["pymunk", "box2d"], ["pymunk", "box2d"], "box2d"),
-    ({"pymunk": (12.0, 120, 1.0), "box2d": (4.0, 130, 0.9)}, ["pymunk", "box2d"], ["pymunk", "box2d"], "pymunk"),
+@pytest.mark.parametrize(("first_runs", "tried", "full", "record", "physics"), [
+    # no body strays from pymunk's first run, and its run follows the video closely: pymunk alone
+    ({"pymunk": (0.6, 600, 0.6), "box2d": (0.3, 600, 0.3)}, ["pymunk"], ["pymunk"], "pymunk", "pymunk"),
+    # Box2D's first run is nearer and follows the video throughout / 40 frames longer: Box2D's physics; the record
+    # is Box2D's run where pymunk's does not follow closely, pymunk's where it does
+    ({"pymunk": (4.0, 120, 3.0), "box2d": (1.0, 600, 1.0)}, ["pymunk", "box2d"], ["pymunk", "box2d"], "box2d",
+     "box2d"),
+    ({"pymunk": (4.0, 120, 1.5), "box2d": (2.5, 160, 1.0)}, ["pymunk", "box2d"], ["pymunk"], "pymunk", "box2d"),
+    # not nearer by the margin, not longer, or not both: pymunk's physics, whichever run is the record
+    ({"pymunk": (4.0, 120, 3.0), "box2d": (3.9, 600, 0.5)}, ["pymunk", "box2d"], ["pymunk", "box2d"], "box2d",
+     "pymunk"),
+    ({"pymunk": (4.0, 120, 3.0), "box2d": (9.0, 600, 2.9)}, ["pymunk", "box2d"], ["pymunk", "box2d"], "pymunk",
+     "pymunk"),
+    ({"pymunk": (12.0, 120, 1.0), "box2d": (4.0, 130, 0.9)}, ["pymunk", "box2d"], ["pymunk"], "pymunk", "pymunk"),
+    # no body strays from pymunk's first run, but its run is not close: Box2D's run may be the record
+    ({"pymunk": (2.5, 600, 2.5), "box2d": (1.0, 600, 1.0)}, ["pymunk", "box2d"], ["pymunk", "box2d"], "box2d",
+     "pymunk"),
 ])
-def test_the_engine_whose_runs_follow_the_video_is_kept(
+def test_the_record_is_the_nearest_run_and_the_physics_the_first_run_that_follows_best(
         monkeypatch: pytest.MonkeyPatch, first_runs: dict[str, tuple[float, int, float]], tried: list[str],
-        full: list[str], kept: str) -> None:
+        full: list[str], record: str, physics: str) -> None:
     calls: list[str] = []
     reconstructed: list[str] = []
     first, rec = _fake_runs(first_runs, calls, reconstructed)
     monkeypatch.setattr(R, "first_run", first)
     monkeypatch.setattr(R, "reconstruct", rec)
     out = R.reconstruct_best(None, {}, [], 600, 600, engines=["pymunk", "box2d"])  # type: ignore[arg-type]
-    assert calls == tried and list(out.tried) == tried and reconstructed == full and out.simulation == kept
+    assert list(out.tried) == tried and reconstructed == full
+    assert out.simulation == record and out.physics == physics
+    assert calls.count("pymunk") == 1  # the first engine's reconstruction goes on from its first run
 
 
 def test_the_later_engine_must_follow_longer_at_the_video_rate() -> None:
@@ -117,10 +126,11 @@ def test_the_later_engine_must_follow_longer_at_the_video_rate() -> None:
     assert not R.later_engine_wins(run(4.0, 20, 600), run(1.0, 25, 600))
 
 
-def test_each_engine_starts_from_the_same_measurements_and_the_kept_one_keeps_its_own(
+def test_the_first_engines_reconstruction_sees_only_its_own_first_runs_measurements(
         monkeypatch: pytest.MonkeyPatch) -> None:
-    """Choosing an engine leaves no trace: the kept engine's reconstruction sees exactly the measurements its own
-    first run made (as if it had been tried alone), never the other engine's."""
+    """Asking which physics made the video leaves no trace: each engine's first run starts from the same
+    measurements, and the first engine's reconstruction sees exactly those its own first run made (as if it had
+    been tried alone), never the other engine's."""
     from craft_dsl.reader.track import TrackedObject
 
     obj = TrackedObject(color=0, blobs=[])
@@ -134,15 +144,19 @@ def test_each_engine_starts_from_the_same_measurements_and_the_kept_one_keeps_it
         attempt = R._Attempt(np.zeros(0), {}, engine, {}, {0: 100}, 0, 0, 3.0)  # type: ignore[arg-type]
         return R.FirstRun(engine, np.arange(1, frames + 1), [], [], attempt)  # type: ignore[arg-type]
 
-    def rec(_model: Any, _values: Any, objects: Any, *_args: Any, opening: R.FirstRun) -> R.Reconstruction:
-        seen["kept"] = set(objects[0].poses)
-        return R.Reconstruction(simulation=opening.engine, values={}, slots=[], attributes=[])  # type: ignore[arg-type]
+    def rec(_model: Any, _values: Any, objects: Any, *_args: Any, opening: R.FirstRun | None = None
+            ) -> R.Reconstruction:
+        assert opening is not None
+        seen.setdefault("reconstructed", set()).update(objects[0].poses)
+        return R.Reconstruction(simulation=opening.engine, values={}, slots=[], attributes=[],  # type: ignore[arg-type]
+                                final_px=1.0)
 
     monkeypatch.setattr(R, "first_run", first)
     monkeypatch.setattr(R, "reconstruct", rec)
     out = R.reconstruct_best(None, {}, [obj], 600, 600, engines=["pymunk", "box2d"])  # type: ignore[arg-type]
-    assert out.simulation == "pymunk"  # box2d's run is neither nearer nor longer
-    assert seen == {"pymunk": {0}, "box2d": {0}, "kept": {0, 5}}
+    assert out.simulation == out.physics == "pymunk"  # box2d's first run is neither nearer nor longer
+    assert seen == {"pymunk": {0}, "box2d": {0}, "reconstructed": {0, 5}}
+    assert set(obj.poses) == {0, 5}  # the kept record's measurements are put back
 
 
 def test_without_box2d_the_reader_uses_pymunk_alone(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -164,3 +178,19 @@ def test_the_reader_names_the_engine_in_the_perceived_scene() -> None:
     assert perception.scene.physics == "box2d" and perception.scene.meta["engines_tried"] == ["box2d"]
     assert SceneModel(perception.scene).engine.name == "box2d"
     assert replace(perception.reconstruction, tried=()).simulation.engine.name == "box2d"
+
+
+def test_a_record_of_one_engine_with_the_physics_of_the_other_is_executed_with_the_physics() -> None:
+    """The perceived scene's tracks and events are the record's run; its counterfactuals re-simulate with the
+    physics, and the meta names the record's engine."""
+    from craft_dsl.reader.perceive import perceive_frames, to_perceived
+    from craft_dsl.render import frames as render_frames
+
+    sim = simulate(2, seed=0, steps=300, engine="box2d")
+    perception = perceive_frames(render_frames(sim), engines=["pymunk"])
+    rec = replace(perception.reconstruction, physics="box2d")
+    scene = to_perceived(rec, perception.objects, perception.layout)
+    assert scene.physics == "box2d" and scene.meta["run_engine"] == "pymunk"
+    assert scene.events == perception.scene.events  # the record's events, whatever the physics
+    assert SceneModel(scene).engine.name == "box2d"
+    assert "run_engine" not in perception.scene.meta  # one engine: record and physics agree

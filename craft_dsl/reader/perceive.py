@@ -209,11 +209,14 @@ def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: Stat
             "max_stray_px": round(max(rec.stray_px.values(), default=0.0), 3), "mean_stray_px": round(rec.final_px, 3),
             "start_px": {str(uid): round(d, 3) for uid, d in sorted(rec.start_px.items())},
             "engines_tried": list(rec.tried)}
+    physics = rec.physics or scene.physics
+    if physics != scene.physics:  # the run nearest the frames is the other engine's: it stays the record
+        meta["run_engine"] = scene.physics
     if rate is not None and rate.fps != 60.0:
         meta.update(video_fps=rate.fps, video_fps_source=rate.source)
     if frame_offset:
         meta["frame_offset"] = frame_offset
-    return scene.model_copy(update={"objects": objs, "meta": meta})
+    return scene.model_copy(update={"objects": objs, "meta": meta, "physics": physics})
 
 
 def _with_mode(dist: dict[str, float], mode: str) -> dict[str, float]:
