@@ -45,7 +45,6 @@ import math
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -60,6 +59,7 @@ from ..simulation import Trajectory
 from ..world import GRAVITY, BodySpec, WorldSpec, bounding_radius
 from .jacobian import forward_jacobian
 from .layout_model import Attributes, LayoutModel
+from .measure import Measurement
 from .track import EYE_BIAS, TrackedObject
 
 #: Frames of the first start fit (at 60 fps: steps; see the module docstring for other rates).
@@ -163,7 +163,7 @@ class Reconstruction:
     final_px: float = 0.0  # mean distance (pixels, capped as in the score) of the kept run from the tracks
     # uid -> mean distance (pixels, capped) over the first fit's frames of the run fitted from the start (no restarts)
     start_px: dict[int, float] = field(default_factory=dict)
-    tried: tuple[str, ...] = ()  # the engines reconstructed with (reconstruct_best), the kept one among them
+    tried: tuple[str, ...] = ()  # the engines run on the video (reconstruct_best: first or whole runs), the kept one
     # the engine counterfactuals are re-simulated with (reconstruct_best: the one whose first run follows the video
     # best; None: the run's own)
     physics: str | None = None
@@ -984,7 +984,7 @@ def later_engine_wins(earlier: FirstRun, later: FirstRun) -> bool:
             and later.strays_at >= earlier.strays_at + frames_for(earlier.rows, ENGINE_LATER_FRAMES))
 
 
-_Measured = list[tuple[dict[int, Any], dict[int, tuple[float, float, float]], "tuple[str, str] | None"]]
+_Measured = list[tuple[dict[int, Measurement], dict[int, tuple[float, float, float]], tuple[str, str] | None]]
 
 
 def _measured(objects: Sequence[TrackedObject]) -> _Measured:
@@ -1028,29 +1028,20 @@ def reconstruct_best(model: LayoutModel, static_values: Mapping[str, float], obj
     if not names:
         raise ValueError("reconstruct_best needs at least one engine")
     before = _measured(objects) if len(names) > 1 else []
-    runs: dict[int, FirstRun] = {}
-    after: dict[int, _Measured] = {}
-
-    def opening(i: int) -> FirstRun:
-        if i not in runs:
-            if runs:
-                _restore(objects, before)
-            runs[i] = first_run(model, static_values, objects, frames, steps, names[i], measure, rows)
-            if len(names) > 1:
-                after[i] = _measured(objects)
-        return runs[i]
-
+    runs = {0: first_run(model, static_values, objects, frames, steps, names[0], measure, rows)}
     physics = 0
-    if opening(0).attempt.first:  # a body strays: the other engines' first runs say which physics made the video
+    if runs[0].attempt.first and len(names) > 1:  # a body strays: the others' first runs say which physics it is
+        after_first = _measured(objects)
         for i in range(1, len(names)):
-            if later_engine_wins(runs[physics], opening(i)):
+            _restore(objects, before)
+            runs[i] = first_run(model, static_values, objects, frames, steps, names[i], measure, rows)
+            if later_engine_wins(runs[physics], runs[i]):
                 physics = i
             if not runs[i].attempt.first:
                 break
+        _restore(objects, after_first)
     # the record: the first engine goes on from its first run as it would alone; a later one reconstructs with
     # every measurement made so far (more exact poses fit its runs closer)
-    if len(names) > 1:
-        _restore(objects, after[0])
     best = reconstruct(model, static_values, objects, frames, steps, names[0], measure, rows, opening=runs[0])
     reconstructed = 1
     for name in names[1:]:
