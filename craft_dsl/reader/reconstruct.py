@@ -984,6 +984,12 @@ def later_engine_wins(earlier: FirstRun, later: FirstRun) -> bool:
             and later.strays_at >= earlier.strays_at + frames_for(earlier.rows, ENGINE_LATER_FRAMES))
 
 
+def can_win_later(earlier: FirstRun) -> bool:
+    """Whether any later first run could win against ``earlier`` (:func:`later_engine_wins`): ``earlier`` strays
+    early enough that a run following the whole video would follow it :data:`ENGINE_LATER_FRAMES` frames longer."""
+    return earlier.strays_at + frames_for(earlier.rows, ENGINE_LATER_FRAMES) <= len(earlier.rows)
+
+
 _Measured = list[tuple[dict[int, Measurement], dict[int, tuple[float, float, float]], tuple[str, str] | None]]
 
 
@@ -1033,6 +1039,8 @@ def reconstruct_best(model: LayoutModel, static_values: Mapping[str, float], obj
     if runs[0].attempt.first and len(names) > 1:  # a body strays: the others' first runs say which physics it is
         after_first = _measured(objects)
         for i in range(1, len(names)):
+            if not can_win_later(runs[physics]):
+                break  # no later first run can follow the video long enough longer: none is made
             _restore(objects, before)
             runs[i] = first_run(model, static_values, objects, frames, steps, names[i], measure, rows)
             if later_engine_wins(runs[physics], runs[i]):
