@@ -167,6 +167,46 @@ def test_the_first_engines_reconstruction_sees_only_its_own_first_runs_measureme
     assert set(obj.poses) == {0, 5}  # the kept record's measurements are put back
 
 
+def test_a_later_first_run_takes_the_measurements_already_made_and_holds_what_it_would_have_made() -> None:
+    """Box2D's first run measures the frames pymunk's first run measured: from what they made, the same values,
+    made once; frames not made before and poses of another shape are made as without it."""
+    from craft_dsl.reader.track import TrackedObject
+
+    made: list[tuple[str, int]] = []
+
+    def measure(obj: Any, which: Any, shape: str, size: str) -> None:  # per frame, from that frame alone
+        for k in which:
+            if k not in obj.measurements:
+                obj.measurements[k] = f"m{k}"
+                made.append(("m", k))
+        if obj.pose_shape != (shape, size):
+            obj.poses.clear()
+            obj.pose_shape = (shape, size)
+        for k in which:
+            if k not in obj.poses and k % 3:  # some frames get no exact pose
+                obj.poses[k] = (float(k), 0.0, 0.0)
+                made.append(("p", k))
+
+    def fresh() -> Any:
+        obj = TrackedObject(color=0, blobs=[])
+        obj.measurements[0] = "m0"  # type: ignore[assignment]  # made before either first run
+        return obj
+
+    first, alone, later = fresh(), fresh(), fresh()
+    measure(first, range(6), "cube", "small")
+    again = R._reusing(measure, [later], R._measured([first]))
+    for which, shape in ((range(8), "cube"), (range(4), "circle"), (range(10), "cube")):
+        made.clear()
+        measure(alone, which, shape, "small")
+        done_alone = list(made)
+        made.clear()
+        again(later, which, shape, "small")
+        assert (later.measurements, later.poses, later.pose_shape) == (alone.measurements, alone.poses,
+                                                                       alone.pose_shape)
+        assert set(made) <= set(done_alone)
+    assert made == [("m", 8), ("m", 9), ("p", 7), ("p", 8)]  # the last call: only what the first run did not make
+
+
 def test_without_box2d_the_reader_uses_pymunk_alone(monkeypatch: pytest.MonkeyPatch) -> None:
     assert R.reader_engines() == ("pymunk", "box2d")
     assert R.reader_engines(aliased=True) == ("box2d",)  # the original renderer's look: its physics

@@ -1007,6 +1007,30 @@ def _restore(objects: Sequence[TrackedObject], measured: _Measured) -> None:
         o.pose_shape = pose_shape
 
 
+def _reusing(measure: Callable[[TrackedObject, Sequence[int], str, str], None], objects: Sequence[TrackedObject],
+             made: _Measured) -> Callable[[TrackedObject, Sequence[int], str, str], None]:
+    """``measure``, taking the measurements and exact poses it already made (``made``: :func:`_measured` after an
+    earlier engine's first run) instead of making them again: each frame's measurement and pose is made from that
+    frame alone, so they are the values it would make, and the objects hold what they would hold."""
+    known = {id(obj): m for obj, m in zip(objects, made)}
+
+    def again(obj: TrackedObject, which: Sequence[int], shape: str, size: str) -> None:
+        if id(obj) in known:
+            measurements, poses, pose_shape = known[id(obj)]
+            for k in which:
+                if k not in obj.measurements and k in measurements:
+                    obj.measurements[k] = measurements[k]
+            if pose_shape == (shape, size):
+                if obj.pose_shape != pose_shape:  # as refine_frames does: another shape's poses go
+                    obj.poses.clear()
+                    obj.pose_shape = pose_shape
+                for k in which:
+                    if k not in obj.poses and k in poses:
+                        obj.poses[k] = poses[k]
+        measure(obj, which, shape, size)
+    return again
+
+
 def follows_closely(rec: Reconstruction) -> bool:
     """The kept run is within :data:`SECOND_ENGINE_PX` of the tracks: no other engine's reconstruction is needed."""
     return rec.final_px <= SECOND_ENGINE_PX
@@ -1038,11 +1062,12 @@ def reconstruct_best(model: LayoutModel, static_values: Mapping[str, float], obj
     physics = 0
     if runs[0].attempt.first and len(names) > 1:  # a body strays: the others' first runs say which physics it is
         after_first = _measured(objects)
+        again = None if measure is None else _reusing(measure, objects, after_first)
         for i in range(1, len(names)):
             if not can_win_later(runs[physics]):
                 break  # no later first run can follow the video long enough longer: none is made
             _restore(objects, before)
-            runs[i] = first_run(model, static_values, objects, frames, steps, names[i], measure, rows)
+            runs[i] = first_run(model, static_values, objects, frames, steps, names[i], again, rows)
             if later_engine_wins(runs[physics], runs[i]):
                 physics = i
             if not runs[i].attempt.first:
