@@ -977,17 +977,23 @@ def reader_engines(aliased: bool = False) -> tuple[str, ...]:
     return ("box2d",) if aliased else READER_ENGINES
 
 
+def _strays_no_sooner(earlier: FirstRun) -> int:
+    """The first frame a later engine's first run may stray at and still win against ``earlier``: at least
+    :data:`ENGINE_LATER_FRAMES` frames (at 60 fps) after ``earlier``'s."""
+    return earlier.strays_at + frames_for(earlier.rows, ENGINE_LATER_FRAMES)
+
+
 def later_engine_wins(earlier: FirstRun, later: FirstRun) -> bool:
     """A later engine's first run follows the video better than an earlier one's: nearer the tracks by more than
     :data:`ENGINE_MARGIN_PX` and for :data:`ENGINE_LATER_FRAMES` frames (at 60 fps) longer before a body strays."""
     return (later.attempt.score < earlier.attempt.score - ENGINE_MARGIN_PX
-            and later.strays_at >= earlier.strays_at + frames_for(earlier.rows, ENGINE_LATER_FRAMES))
+            and later.strays_at >= _strays_no_sooner(earlier))
 
 
 def can_win_later(earlier: FirstRun) -> bool:
-    """Whether any later first run could win against ``earlier`` (:func:`later_engine_wins`): ``earlier`` strays
-    early enough that a run following the whole video would follow it :data:`ENGINE_LATER_FRAMES` frames longer."""
-    return earlier.strays_at + frames_for(earlier.rows, ENGINE_LATER_FRAMES) <= len(earlier.rows)
+    """Whether any later first run could win against ``earlier`` (:func:`later_engine_wins`): one that follows the
+    whole video (strays at its frame count) follows it long enough longer."""
+    return _strays_no_sooner(earlier) <= len(earlier.rows)
 
 
 _Measured = list[tuple[dict[int, Measurement], dict[int, tuple[float, float, float]], tuple[str, str] | None]]
