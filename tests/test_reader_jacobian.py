@@ -118,3 +118,16 @@ def test_bounding_radius_holds_every_vertex() -> None:
     corners = [np.hypot(x, y) for poly in cube.geometry.polygons for x, y in poly]
     assert bounding_radius(cube.geometry) == pytest.approx(max(corners))
     assert bounding_radius(circle.geometry) == circle.geometry.circle_radius
+
+
+def test_a_start_fit_ends_once_an_iteration_gains_less_than_its_tolerance() -> None:
+    from craft_dsl.reader.reconstruct import FIT_TOLERANCE, fit_converged
+
+    step = np.array([0.01, -0.02])
+    # a tenth of the misfit gained: go on; a gain under the tolerance's share of the misfit, or none: stop
+    assert not fit_converged(100.0, 90.0, step)
+    assert not fit_converged(100.0, 100.0 * (1 - 2 * FIT_TOLERANCE), step)
+    assert fit_converged(100.0, 100.0 * (1 - 0.5 * FIT_TOLERANCE), step)
+    assert fit_converged(100.0, 100.0, step)
+    # a negligible step ends the fit whatever it gained
+    assert fit_converged(100.0, 50.0, np.array([1e-8, -1e-8]))
