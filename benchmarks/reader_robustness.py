@@ -46,7 +46,9 @@ Each variant's reading imports ``craft_dsl`` afresh (its worker processes): in a
 ``PYTHONPATH`` at a snapshot (``git archive HEAD | tar -x -C SNAP``), or variants are read by different readers.
 
 Run: ``python benchmarks/reader_robustness.py --dataset DIR --workers 2 [--variants a,b] [--videos N] [--keep DIR]
-[--json out.json]``.
+[--json out.json]``. Copies read in runs of their own (one ``--variants`` and ``--json`` each, so that a long
+read's figures survive the next one's interruption) print as one table with ``--dataset DIR --tables-from
+original.json h264.json ...``.
 """
 
 from __future__ import annotations
@@ -532,6 +534,43 @@ def run_variant(variant: Variant, tests: Suite, sources: dict[int, Path], folder
     return row
 
 
+def saved_rows(paths: Sequence[Path], videos: Sequence[int]) -> dict[str, dict[str, Any]]:
+    """The variants' rows of earlier runs' ``--json`` files, in the order given; raise ValueError naming a file that
+    is not such a run, was made on other test videos, or repeats a variant."""
+    rows: dict[str, dict[str, Any]] = {}
+    for path in paths:
+        try:
+            saved = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError) as err:
+            raise ValueError(f"{path}: cannot be read as a --json file of this benchmark: {err}") from err
+        if not isinstance(saved, dict) or not isinstance(saved.get("variants"), dict):
+            raise ValueError(f"{path}: not a --json file of this benchmark (it has no 'variants')")
+        if saved.get("videos") != list(videos):
+            raise ValueError(f"{path}: made on other test videos ({len(saved.get('videos') or [])}) than the "
+                             f"dataset's ({len(videos)}); give --dataset and --videos as that run had them")
+        for name, row in saved["variants"].items():
+            if name in rows:
+                raise ValueError(f"{path}: variant {name} is in an earlier file too; give each variant once")
+            rows[name] = row
+    return rows
+
+
+def print_saved_tables(root: Path, paths: Sequence[Path], limit: int | None,
+                       parser: argparse.ArgumentParser) -> int:
+    """Print the tables of the runs saved in ``paths`` (``--tables-from``) as one run of them all would."""
+    try:
+        tests = load_suite(root, limit)
+        rows = saved_rows(paths, tests.videos)
+    except (FileNotFoundError, CraftError, ValueError) as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    if "original" not in rows:
+        parser.error("--tables-from: no file holds the variant 'original', against which the others are counted")
+    print(f"{root}: {len(tests.videos)} test videos; the runs of {', '.join(str(p) for p in paths)}\n")
+    print(table({"original": rows.pop("original"), **rows}, tests))
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--dataset", required=True, help="a dataset folder written by craft-dsl generate --videos")
@@ -542,6 +581,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--keep", help="write the copies into DIR/<variant>/ and keep them (default: temporary "
                                        "folders, each removed once its variant is read)")
     parser.add_argument("--json", help="write every figure here")
+    parser.add_argument("--tables-from", nargs="+", metavar="JSON",
+                        help="read nothing: print the tables of earlier runs' --json files together (each copy read "
+                             "in a run of its own, points against the original of one of them), for --dataset")
     args = parser.parse_args(argv)
     names = [n.strip() for n in args.variants.split(",") if n.strip()]
     unknown = [n for n in names if n not in VARIANTS]
@@ -554,6 +596,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     root = Path(args.dataset)
     if not root.is_dir():
         parser.error(f"--dataset {root}: no such folder")
+    if args.tables_from:
+        return print_saved_tables(root, [Path(p) for p in args.tables_from], args.videos, parser)
     try:
         tests = load_suite(root, args.videos)
         if not tests.videos:

@@ -176,6 +176,30 @@ def test_two_videos_in_two_variants(rr: ModuleType, users_dataset: Path, tmp_pat
     printed = capsys.readouterr().out
     assert "| original |" in printed and "| fps-10-down |" in printed
 
+    # each variant's figures saved by a run of its own print, together, the tables the one run printed
+    saved = json.loads(out.read_text())
+    files = []
+    for name in ("fps-10-down", "original"):  # in any order: original is the base
+        part = tmp_path / f"{name}.json"
+        part.write_text(json.dumps({**saved, "variants": {name: saved["variants"][name]}}))
+        files.append(str(part))
+    assert rr.main(["--dataset", str(users_dataset), "--videos", "2", "--tables-from", *files]) == 0
+    together = capsys.readouterr().out
+    tables = printed[printed.index("| variant |"):printed.index("Videos checked")].strip()
+    assert tables in together
+
+    # files that cannot be put together are named, with what is wrong
+    assert rr.main(["--dataset", str(users_dataset), "--videos", "1", "--tables-from", *files]) == 2
+    assert "made on other test videos" in capsys.readouterr().err
+    assert rr.main(["--dataset", str(users_dataset), "--videos", "2", "--tables-from", files[1], files[1]]) == 2
+    assert "variant original is in an earlier file too" in capsys.readouterr().err
+    (tmp_path / "broken.json").write_text("{")
+    assert rr.main(["--dataset", str(users_dataset), "--videos", "2", "--tables-from",
+                    str(tmp_path / "broken.json")]) == 2
+    assert "broken.json: cannot be read as a --json file" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # nothing to count against
+        rr.main(["--dataset", str(users_dataset), "--videos", "2", "--tables-from", files[0]])
+
 
 @pytest.mark.skipif(os.environ.get("CRAFT_DSL_SLOW") != "1",
                     reason="reads 2 videos in all 8 variants (about 100 s on 2 busy cores): set CRAFT_DSL_SLOW=1")
