@@ -32,7 +32,7 @@ from craft_dsl.reader.detect import (
 )
 from craft_dsl.reader.layout import StaticRenderer, fit_statics, observation
 from craft_dsl.reader.layout_model import LayoutModel, layout_model
-from craft_dsl.reader.measure import measure
+from craft_dsl.reader.measure import measure, measure_many
 from craft_dsl.reader.perceive import perceive_frames
 from craft_dsl.reader.track import TrackedObject, count_per_color, select_objects
 from craft_dsl.render import frames as render_frames
@@ -186,6 +186,29 @@ def test_another_body_touching_is_still_another_body() -> None:
         "cube", ("cube", "brown", "small", (1.237 + 3.05, 29.61)))
     m = measure(window, background, COLORS.index("red"), origin)
     assert m is not None and not m.complete
+
+
+def test_windows_measured_together_are_measured_as_each_alone() -> None:
+    # a video's windows of one body are measured as one stack: the same measurements, to the bit, as one by one
+    red = COLORS.index("red")
+    cases = [_red_body_window(shape) for shape in ("cube", "triangle", "circle")]
+    cases.append(_red_body_window("cube", ("cube", "brown", "small", (1.237 + 3.05, 29.61))))  # another body touches
+    window, background, origin, _centre = cases[0]
+    speck = window.copy()
+    speck[1:4, 1:4] = PALETTE[red]  # a second red piece in a corner
+    empty = background.copy()  # no body at all
+    windows = np.stack([c[0] for c in cases] + [speck, speck, empty])
+    backgrounds = np.stack([c[1] for c in cases] + [background] * 3)
+    origins = [c[2] for c in cases] + [origin] * 3
+    seeds = [(24, 24)] * len(cases) + [(24, 24), (2, 2), (24, 24)]
+    for given_seeds in (seeds, None):
+        together = measure_many(windows, backgrounds, red, origins, seeds=given_seeds)
+        alone = [measure(w, b, red, o, seed=None if given_seeds is None else s)
+                 for w, b, o, s in zip(windows, backgrounds, origins, seeds)]
+        assert together == alone
+    assert together[-1] is None
+    by_seed = measure_many(windows[-3:-1], backgrounds[-3:-1], red, origins[-3:-1], seeds=seeds[-3:-1])
+    assert by_seed[0] is not None and by_seed[1] is not None and by_seed[1].area < 20 < by_seed[0].area
 
 
 # -- detection and perception on rendered (lossless) frames ---------------------------------------------------

@@ -40,3 +40,17 @@ def test_a_ring_is_filled_and_a_notched_disk_closed() -> None:
     notched = disk(8).copy()
     notched[6:9, 6:11] = False  # an eye-sized notch inside the body
     assert np.array_equal(close_disk(notched, 4), disk(8))
+
+
+stacks = st.tuples(st.integers(1, 4), st.integers(1, 20), st.integers(1, 20)).flatmap(
+    lambda nhw: arrays(bool, nhw, elements=st.booleans()))
+
+
+@settings(max_examples=100, deadline=None)
+@given(stacks, st.integers(1, 4))
+def test_a_stack_of_masks_is_each_mask_on_its_own(stack: np.ndarray, radius: int) -> None:
+    for op in (lambda m: close_disk(m, radius), fill_holes, lambda m: grow(m, radius), lambda m: shrink(m, radius)):
+        together = op(stack)
+        assert together.shape == stack.shape
+        for i, mask in enumerate(stack):
+            assert np.array_equal(together[i], op(mask))

@@ -14,13 +14,14 @@ the eye pixels give the body's angle.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage as ndi
 
 from .detect import BLACK, GRAY, PALETTE, WHITE, clean_background, lookup
-from .morphology import close_disk, fill_holes, grow, shrink
+from .morphology import close_disk, fill_holes, grow, plane_cross, shrink
 
 #: Radius (pixels) of the disk that closes the eye notches of a body's colour mask.
 CLOSING_RADIUS = 4
@@ -78,33 +79,48 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
     static layer's same window); ``origin`` = (row, column) of the window in the frame. With ``seed`` (row, column
     inside the window) only the connected piece nearest to it is measured. ``soft``: the frames are softer than the
     renderer draws them (colours read by :func:`~craft_dsl.reader.detect.soft_color_table`)."""
+    return measure_many(window[None], background[None], color, [origin], None if labels is None else labels[None],
+                        None if seed is None else [seed], soft)[0]
+
+
+def measure_many(windows: np.ndarray, backgrounds: np.ndarray, color: int, origins: Sequence[tuple[int, int]],
+                 labels: np.ndarray | None = None, seeds: Sequence[tuple[int, int]] | None = None,
+                 soft: bool = False) -> list[Measurement | None]:
+    """:func:`measure` of each window of a stack (uint8 [n, h, w, 3], over ``backgrounds`` [n, h, w, 3]): the same
+    measurements, the masks of all windows made at once."""
     if labels is None:
-        labels = lookup(window, soft)
+        labels = lookup(windows, soft)
     # the antialiased rims of black statics read as gray: gray counts only over a flat background
-    clean = clean_background(background)
+    clean = clean_background(backgrounds)
     core = labels == color
     if color == GRAY:
         core &= clean
-    if not core.any():
-        return None
+    present = core.any(axis=(1, 2))
+    out: list[Measurement | None] = [None] * len(windows)
+    if not present.any():
+        return out
     closed = close_disk(core, CLOSING_RADIUS) | core
     filled = fill_holes(closed)
-    pieces, n = ndi.label(filled)
-    if n > 1:
-        if seed is not None:
-            ys, xs = np.nonzero(filled)
-            k = int(np.argmin((ys - seed[0]) ** 2 + (xs - seed[1]) ** 2))
-            keep = pieces[ys[k], xs[k]]
+    pieces, _ = ndi.label(filled, structure=plane_cross(3))
+    # each window's pieces are numbered after the windows' before it (no connection between windows)
+    last = pieces.reshape(len(pieces), -1).max(axis=1)
+    before = np.concatenate([[0], np.maximum.accumulate(last)[:-1]])
+    for i in np.nonzero(last - before > 1)[0].tolist():  # several pieces: the one nearest the seed, else the largest
+        frame = pieces[i]
+        if seeds is not None:
+            ys, xs = np.nonzero(frame)
+            k = int(np.argmin((ys - seeds[i][0]) ** 2 + (xs - seeds[i][1]) ** 2))
+            keep = frame[ys[k], xs[k]]
         else:
-            keep = int(np.argmax(np.bincount(pieces.ravel())[1:])) + 1
-        filled = pieces == keep
+            keep = int(np.argmax(np.bincount(frame.ravel())[before[i] + 1:])) + before[i] + 1
+        filled[i] = frame == keep
     interior = shrink(filled)
     rim = grow(filled) & ~interior
     c = PALETTE[color]
-    b = background.astype(np.float32)
-    cb = c[None, None, :] - b
+    b = backgrounds.astype(np.float32)
+    cb = c[None, None, None, :] - b
     denom = np.maximum((cb * cb).sum(-1), 1.0)
-    proj = ((window.astype(np.float32) - b) * cb).sum(-1) / denom
+    proj = ((windows.astype(np.float32) - b) * cb).sum(-1) / denom
     eyes = (labels == WHITE) | (labels == BLACK)
     # another body's colour (compression rings of statics reach a pixel or two beyond their drawn rims)
     other = (labels >= 0) & (labels < WHITE) & (labels != color)
@@ -112,41 +128,49 @@ def measure(window: np.ndarray, background: np.ndarray, color: int, origin: tupl
     near = grow(filled, BLEED_WIDTH)
     touching_other = near & ~filled & other
     other_body = np.zeros_like(other)
-    if touching_other.any():  # which pieces of other colours are bodies (see BLEED_WIDTH); the rest is this body's rim
-        pieces, n = ndi.label(other)
-        beyond = np.bincount(pieces[other & ~near], minlength=n + 1) > 0
-        sizes = np.bincount(pieces.ravel(), minlength=n + 1)
+    for i in np.nonzero(touching_other.any(axis=(1, 2)))[0].tolist():
+        # which pieces of other colours are bodies (see BLEED_WIDTH); the rest is this body's rim
+        parts, n = ndi.label(other[i])
+        beyond = np.bincount(parts[other[i] & ~near[i]], minlength=n + 1) > 0
+        sizes = np.bincount(parts.ravel(), minlength=n + 1)
         body = beyond & (sizes >= OTHER_BODY_PIXELS)
         body[0] = False
-        other_body = body[pieces]
+        other_body[i] = body[parts]
     alpha = interior.astype(np.float32)
     rim_ok = rim & ~other_body & ~(eyes & filled)
     alpha[rim_ok] = np.clip(proj[rim_ok], 0.0, 1.0)
     alpha[rim & filled & eyes] = 1.0
-    area = float(alpha.sum())
-    if area <= 0:
-        return None
-    h, w = alpha.shape
+    h, w = alpha.shape[1:]
     rows = np.arange(h, dtype=np.float64)[:, None] + 0.5
     cols = np.arange(w, dtype=np.float64)[None, :] + 0.5
-    cx = float((alpha * cols).sum() / area)
-    cy = float((alpha * rows).sum() / area)
-    dx, dy = cols - cx, rows - cy
-    mxx = float((alpha * dx * dx).sum() / area)
-    mxy = float((alpha * dx * dy).sum() / area)
-    myy = float((alpha * dy * dy).sum() / area)
-    outline = filled
-    if area >= RADIUS_CLEAR_AREA:  # a lossy copy smears a body's colour along a static it touches (see the constant)
-        clear = filled & shrink(clean, RADIUS_STATIC_MARGIN)
-        outline = clear if clear.any() else filled
-    radius = float(np.sqrt((dx * dx + dy * dy)[outline].max()))
+    outline = filled.copy()
+    clear = filled & shrink(clean, RADIUS_STATIC_MARGIN)
     inner_eyes = eyes & interior
-    eye_x: float | None = None
-    eye_y: float | None = None
-    if inner_eyes.any():
-        ey, ex = np.nonzero(inner_eyes)
-        eye_x, eye_y = float(ex.mean() + 0.5 + origin[1]), float(ey.mean() + 0.5 + origin[0])
-    border = filled[0].any() or filled[-1].any() or filled[:, 0].any() or filled[:, -1].any()
-    cut = bool((touching_other & other_body).any())  # another body touches (not eye-rim mixes, not bleeding)
-    return Measurement(area, cx + origin[1], cy + origin[0], mxx, mxy, myy, radius, eye_x, eye_y,
-                       not border and not cut)
+    has_eyes = inner_eyes.any(axis=(1, 2))
+    border = filled[:, 0].any(axis=1) | filled[:, -1].any(axis=1) | filled[:, :, 0].any(axis=1) | \
+        filled[:, :, -1].any(axis=1)
+    cut = (touching_other & other_body).any(axis=(1, 2))  # another body touches (not eye-rim mixes, not bleeding)
+    complete = (~border & ~cut).tolist()
+    for i in np.nonzero(present)[0].tolist():
+        a = alpha[i]
+        area = float(a.sum())
+        if area <= 0:
+            continue
+        cx = float((a * cols).sum() / area)
+        cy = float((a * rows).sum() / area)
+        dx, dy = cols - cx, rows - cy
+        mxx = float((a * dx * dx).sum() / area)
+        mxy = float((a * dx * dy).sum() / area)
+        myy = float((a * dy * dy).sum() / area)
+        # a lossy copy smears a body's colour along a static it touches (see RADIUS_STATIC_MARGIN)
+        if area >= RADIUS_CLEAR_AREA and clear[i].any():
+            outline[i] = clear[i]
+        radius = float(np.sqrt((dx * dx + dy * dy)[outline[i]].max()))
+        eye_x: float | None = None
+        eye_y: float | None = None
+        if has_eyes[i]:
+            ey, ex = np.nonzero(inner_eyes[i])
+            eye_x, eye_y = float(ex.mean() + 0.5 + origins[i][1]), float(ey.mean() + 0.5 + origins[i][0])
+        out[i] = Measurement(area, cx + origins[i][1], cy + origins[i][0], mxx, mxy, myy, radius, eye_x, eye_y,
+                             complete[i])
+    return out

@@ -38,7 +38,7 @@ import numpy as np
 from ..render.raster import DEFAULT_SIZE
 from ..vocabulary import COLORS, SHAPES, SIZES
 from .detect import GRAY, PALETTE, SOFT_RESIDUAL, Blob, cb_cr, mix_residual
-from .measure import Measurement, measure
+from .measure import Measurement, measure_many
 from .refine import SOFT_ANGLE_STARTS, refine
 
 #: A colour counts n bodies when at least this many frames show n separate substantial blobs of it.
@@ -672,17 +672,24 @@ def measure_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarra
     it is kept, marked not complete."""
     size = frames.shape[1]
     half = WINDOW // 2
-    soft = soft_source(obj.source_size)
-    for k in which:
-        if k in obj.measurements:
-            continue
+    todo: list[int] = []
+    origins: list[tuple[int, int]] = []
+    seeds: list[tuple[int, int]] = []
+    for k in dict.fromkeys(which):
         b = obj.blobs[k]
-        if b is None:
+        if k in obj.measurements or b is None:
             continue
         x0 = min(max(int(b.x) - half, 0), size - WINDOW)
         y0 = min(max(int(b.y) - half, 0), size - WINDOW)
-        m = measure(frames[k, y0:y0 + WINDOW, x0:x0 + WINDOW], background[y0:y0 + WINDOW, x0:x0 + WINDOW],
-                    obj.color, (y0, x0), seed=(int(b.y) - y0, int(b.x) - x0), soft=soft)
+        todo.append(k)
+        origins.append((y0, x0))
+        seeds.append((int(b.y) - y0, int(b.x) - x0))
+    if not todo:
+        return
+    windows = np.stack([frames[k, y0:y0 + WINDOW, x0:x0 + WINDOW] for k, (y0, x0) in zip(todo, origins)])
+    backgrounds = np.stack([background[y0:y0 + WINDOW, x0:x0 + WINDOW] for y0, x0 in origins])
+    measured = measure_many(windows, backgrounds, obj.color, origins, seeds=seeds, soft=soft_source(obj.source_size))
+    for k, m in zip(todo, measured):
         if m is None:
             continue
         if m.complete and any((t := twin.blobs[k]) is not None and math.hypot(t.x - m.x, t.y - m.y) <= m.radius
