@@ -52,6 +52,10 @@ MISFIT_MARGIN = 1e-9
 _FD_STEP = {0: 1e-6, 1: 1e-6, 2: 1e-7, 3: 1e-5, 4: 1e-5, 5: 1e-6}
 #: The start fit stops when every residual is below this (metres, radians, m/s, rad/s).
 FIT_TOLERANCE = 1e-12
+#: ...or when its last iteration lowered no group's misfit by this share of it or more: a hypothesis that cannot fit
+#: (a body at rest that the next row shows moving) keeps its misfit whatever the free components do, and a fit that
+#: does converges by orders of magnitude an iteration until it reaches the floating-point floor.
+STALL_FRACTION = 1e-6
 _FIXED_STATICS = ("wall_l", "wall_r", "ground")
 _ORDER = {"wall_l": 0, "wall_r": 1, "ground": 2, "basket": 3}
 
@@ -316,6 +320,9 @@ def _gauss_newton(world: WorldSpec, motions: Mapping[int, Motion], engine: Physi
     def group_cost(c: dict[int, float], group: list[int]) -> float:
         return sum(c[u] for u in group)
 
+    def stalled(before: float, after: float) -> bool:
+        return after < FIT_TOLERANCE ** 2 or before - after < STALL_FRACTION * before
+
     base, residual, cost = evaluate(states)
     for _ in range(FIT_ITERATIONS):
         if max(cost.values()) < FIT_TOLERANCE ** 2:
@@ -358,7 +365,10 @@ def _gauss_newton(world: WorldSpec, motions: Mapping[int, Motion], engine: Physi
         if not accepted:
             break
         states = {uid: accepted.get(uid, st) for uid, st in states.items()}
+        before = cost
         base, residual, cost = evaluate(states)
+        if all(stalled(group_cost(before, g), group_cost(cost, g)) for g in components):
+            break
     return states, cost
 
 
