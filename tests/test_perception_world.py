@@ -4,6 +4,7 @@ start re-simulates the run, counterfactuals are replayed cleanly against the tra
 from __future__ import annotations
 
 from collections import Counter
+from typing import cast
 
 import pytest
 
@@ -12,8 +13,10 @@ from craft_dsl.errors import CounterfactualUnavailable, PerceptionError
 from craft_dsl.perception import ExecutionOptions, SceneModel, export_perceived, most_likely_world
 from craft_dsl.perception.fit import start_hypotheses
 from craft_dsl.physics import LiveSimulation, simulate
+from craft_dsl.physics.engine import PhysicsEngine, RawRun, ReplayPlan
 from craft_dsl.templates import first_instances, templates
 from craft_dsl.verify.categories import family_of
+from craft_dsl.world import WorldSpec
 
 #: Two live runs (600 steps each) serve the whole file.
 CASES = ((3, 7), (7, 3))
@@ -176,3 +179,46 @@ def test_lower_frame_rates_keep_descriptive_answers(sims: dict[tuple[int, int], 
             assert program.run(world) == answer, template.id
         else:
             program.run(world)  # counterfactuals re-simulate from the interpolated tracks
+
+
+class _CountingEngine:
+    """An engine that counts its runs."""
+
+    def __init__(self, engine: PhysicsEngine) -> None:
+        self.engine, self.runs = engine, 0
+        self.name = engine.name
+
+    def run(self, world: WorldSpec, steps: int, replay: ReplayPlan | None = None) -> RawRun:
+        self.runs += 1
+        return self.engine.run(world, steps, replay)
+
+
+def test_a_start_hypothesis_that_cannot_fit_stops_as_soon_as_it_stalls(
+        sims: dict[tuple[int, int], LiveSimulation], monkeypatch: pytest.MonkeyPatch) -> None:
+    # every body held at rest at row 0 while the tracks' row 1 shows them moving: only the positions are free, and the
+    # misfit of the velocities stays whatever they do
+    import numpy as np
+
+    from craft_dsl.perception import fit
+
+    sim = sims[(3, 7)]
+    model = SceneModel(export_perceived(sim))
+    world = model._unfitted.world
+    moving = [b for b in world.bodies if b.dynamic and np.hypot(*model.motions[b.uid].velocities[1]) > 1.0]
+    assert moving
+    guess = {b.uid: np.concatenate([model.motions[b.uid].positions[1], [b.angle, 0.0, 0.0, 0.0]])
+             for b in world.bodies if b.dynamic}
+    rest = {uid: (0.0, 0.0) for uid in guess}
+
+    def fitted(stall: float) -> tuple[int, dict[int, float]]:
+        monkeypatch.setattr(fit, "STALL_FRACTION", stall)
+        engine = _CountingEngine(model.engine)
+        _states, cost = fit._gauss_newton(world, model.motions, cast(PhysicsEngine, engine), True, guess, rest,
+                                          use_state=True)
+        return engine.runs, cost
+
+    runs, cost = fitted(fit.STALL_FRACTION)
+    runs_to_the_cap, cost_at_the_cap = fitted(0.0)
+    assert min(cost[b.uid] for b in moving) > 1e-3  # it cannot fit
+    assert runs < runs_to_the_cap
+    assert sum(cost.values()) == pytest.approx(sum(cost_at_the_cap.values()), rel=1e-5)
