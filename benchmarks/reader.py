@@ -62,6 +62,7 @@ from craft_dsl.render.raster import world_to_pixel
 from craft_dsl.verify import read_minimal, read_split, score
 from craft_dsl.verify.answers import answers_agree
 from craft_dsl.verify.categories import family_of
+from craft_dsl.world import DEFAULT_STEPS
 
 STEP_TOLERANCE = 2
 
@@ -119,7 +120,8 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
     answers = answer_questions(perception.scene, questions, votes=votes)
     answer_s = time.perf_counter() - t
     # -- ground truth (the benchmark's side) -------------------------------------------------------------------
-    sim = simulate(stats["scene"], seed=stats["simulation_seed"], engine=stats["engine"])
+    sim = simulate(stats["scene"], seed=stats["simulation_seed"], steps=stats.get("steps", DEFAULT_STEPS),
+                   engine=stats["engine"])
     rec = perception.reconstruction
     true_world = sim.world_spec
     true_triples = {(b.shape, b.color, b.size): b.uid for b in true_world.bodies if b.dynamic}
@@ -260,12 +262,13 @@ def main() -> None:
         compare_decoders([paths[v] for v in videos[: args.decoders]])
         return
     config = root / "generation_config.json"
-    engine = json.loads(config.read_text()).get("engine", "pymunk") if config.exists() else "pymunk"
+    generation = json.loads(config.read_text()) if config.exists() else {}
+    engine, steps = generation.get("engine", "pymunk"), int(generation.get("steps", DEFAULT_STEPS))
     jobs = []
     for v in videos:
         stats = json.loads((root / "questions" / f"qa_{v:06d}.json").read_text())["stats"]
         stats = {"scene": stats["scene"], "simulation_seed": stats["simulation_seed"], "engine": engine,
-                 "template_ids": {q.key: template[q.key] for q in by_video[v]}}
+                 "steps": steps, "template_ids": {q.key: template[q.key] for q in by_video[v]}}
         jobs.append((str(paths[v]), by_video[v], stats, {q.key: truth[q.key] for q in by_video[v]}))
     load_before = os.getloadavg()
     t0 = time.perf_counter()
