@@ -241,6 +241,11 @@ class _Run:
         # substeps_for(), inlined: the same arithmetic
         sqrt, ceil, max_move = math.sqrt, math.ceil, eng.max_move
         min_sub, max_sub = eng.substeps, eng.max_substeps
+        def recorders() -> list[tuple[Any, ...]]:
+            """Each active body's Chipmunk handle and its rows' appends (looked up once, not every frame)."""
+            return [(body._body, *(row.append for row in rows[i][1:])) for i, body in active]
+
+        recording = recorders()
         self.stepping = True
         for k in range(first, steps):
             self.frame = k
@@ -253,6 +258,7 @@ class _Run:
                     _set_state(body, rec.state(rec.col[uid], k))
                     rec.activate(uid, body, k)
                 kinematic = _KinematicRows(rec, fps)
+                recording = recorders()
             if kinematic.rows:
                 kinematic.place(k)
             need = ceil(sqrt(vmax2) / fps / max_move)
@@ -266,26 +272,24 @@ class _Run:
             for _ in range(n_sub - 1):
                 c_step(c_space, dt)
             vmax2 = 0.0
-            for i, body in active:
+            for h, add_p, add_a, add_v, add_w, add_aw in recording:
                 # Direct Chipmunk getters: the recording is the hot loop of a run.
-                h = body._body
-                _, p_, a_, v_, w_, aw_ = rows[i]
                 p = get_pos(h)
-                p_.append((p.x, p.y))
-                a_.append(get_angle(h))
+                add_p((p.x, p.y))
+                add_a(get_angle(h))
                 if is_sleeping(h):  # Box2D zeroes a sleeping body's velocity
-                    v_.append(zero)
-                    w_.append(0.0)
-                    aw_.append(False)
+                    add_v(zero)
+                    add_w(0.0)
+                    add_aw(False)
                 else:
                     v = get_vel(h)
                     vx, vy = v.x, v.y
-                    v_.append((vx, vy))
+                    add_v((vx, vy))
                     speed2 = vx * vx + vy * vy
                     if speed2 > vmax2:
                         vmax2 = speed2
-                    w_.append(get_angvel(h))
-                    aw_.append(True)
+                    add_w(get_angvel(h))
+                    add_aw(True)
         self.stepping = False
         return rec.result(self.log.log(steps))
 
