@@ -26,6 +26,7 @@ import pytest
 from craft_dsl.cli import main
 from craft_dsl.errors import ReaderError
 from craft_dsl.reader import cli as read_cli
+from craft_dsl.reader import reconstruct
 from craft_dsl.reader.answer import VIDEO_SUFFIXES, Answer, Question, find_videos
 from craft_dsl.reader.runs import Journal, ctrl_c_outside_callbacks, journal_path, run_tasks
 from craft_dsl.reader.video import decode
@@ -333,6 +334,7 @@ class StandIn:
         self.paths: list[str] = []
         self.votes: list[Any] = []  # --votes of each call
         self.steps: list[Any] = []  # --steps of each call
+        self.engines: list[Any] = []  # --engine of each call
         self.raise_at = raise_at or {}
 
     def __call__(self, path: str, questions: list[Question], *args: Any) -> dict[str, Any]:
@@ -341,9 +343,10 @@ class StandIn:
             raise self.raise_at[index]
         self.read.append(index)
         self.paths.append(path)
-        _decoder, _distribution, _samples, votes, steps = args
+        _decoder, _distribution, _samples, votes, steps, engine = args
         self.votes.append(votes)
         self.steps.append(steps)
+        self.engines.append(engine)
         return {"path": path, "answers": [Answer(q, "True", None, f"program {q.key}") for q in questions],
                 "scene": json.dumps({"video": index}), "timings": {"perception": 0.5}}
 
@@ -429,6 +432,37 @@ def test_the_run_length_is_an_input_of_the_run(dummy: Path, monkeypatch: pytest.
     stand_in = StandIn()
     monkeypatch.setattr(read_cli, "read_video", stand_in)
     assert _read(dummy, out, "--quiet") == 0 and stand_in.steps == [600, 600]
+
+
+def test_the_engine_is_an_input_of_the_run(dummy: Path, monkeypatch: pytest.MonkeyPatch,
+                                           capsys: pytest.CaptureFixture[str]) -> None:
+    out = dummy / "preds.json"
+    _interrupted(dummy, monkeypatch, out, VIDEOS[1])
+    capsys.readouterr()
+    assert _read(dummy, out, "--quiet", "--engine", "pymunk") == 2
+    assert "the journal of another run (--engine auto there, pymunk here)" in capsys.readouterr().err
+    stand_in = StandIn()
+    monkeypatch.setattr(read_cli, "read_video", stand_in)
+    assert _read(dummy, dummy / "alone.json", "--quiet", "--engine", "pymunk") == 0
+    assert stand_in.engines == ["pymunk"] * len(VIDEOS)
+    monkeypatch.setattr(reconstruct, "reader_engines", lambda aliased=False: ("pymunk",))  # no Box2D installed
+    assert _read(dummy, dummy / "box2d.json", "--quiet", "--engine", "box2d") == 2
+    assert "--engine box2d: Box2D is not installed (pip install 'craft-dsl[reader]'); installed: pymunk" in \
+        capsys.readouterr().err
+    assert ("auto", *reconstruct.READER_ENGINES) == read_cli.ENGINE_CHOICES
+
+
+def test_a_video_is_reconstructed_with_the_engine_given_alone(monkeypatch: pytest.MonkeyPatch) -> None:
+    seen: list[Any] = []
+
+    def perceive(path: str, decoder: str, engines: Any = None) -> Any:
+        seen.append(engines)
+        raise ReaderError(f"{path}: stand-in")
+
+    monkeypatch.setattr("craft_dsl.reader.perceive.perceive_video", perceive)
+    for engine, engines in (("auto", None), ("pymunk", ("pymunk",)), ("box2d", ("box2d",))):
+        assert read_cli.read_video("v.mp4", [], engine=engine) == {"path": "v.mp4", "error": "v.mp4: stand-in"}
+        assert seen.pop() == engines
 
 
 def test_a_torn_last_line_is_dropped_and_its_video_read_again(dummy: Path, monkeypatch: pytest.MonkeyPatch,
