@@ -124,7 +124,8 @@ def measure_many(windows: np.ndarray, backgrounds: np.ndarray, color: int, origi
     eyes = (labels == WHITE) | (labels == BLACK)
     # another body's colour (compression rings of statics reach a pixel or two beyond their drawn rims)
     other = (labels >= 0) & (labels < WHITE) & (labels != color)
-    other &= (labels != GRAY) | shrink(clean, 2)
+    inner = {margin: shrink(clean, margin) for margin in {2, RADIUS_STATIC_MARGIN}}  # the flat background, eroded
+    other &= (labels != GRAY) | inner[2]
     near = grow(filled, BLEED_WIDTH)
     touching_other = near & ~filled & other
     other_body = np.zeros_like(other)
@@ -143,8 +144,7 @@ def measure_many(windows: np.ndarray, backgrounds: np.ndarray, color: int, origi
     h, w = alpha.shape[1:]
     rows = np.arange(h, dtype=np.float64)[:, None] + 0.5
     cols = np.arange(w, dtype=np.float64)[None, :] + 0.5
-    outline = filled.copy()
-    clear = filled & shrink(clean, RADIUS_STATIC_MARGIN)
+    clear = filled & inner[RADIUS_STATIC_MARGIN]
     inner_eyes = eyes & interior
     has_eyes = inner_eyes.any(axis=(1, 2))
     border = filled[:, 0].any(axis=1) | filled[:, -1].any(axis=1) | filled[:, :, 0].any(axis=1) | \
@@ -163,9 +163,8 @@ def measure_many(windows: np.ndarray, backgrounds: np.ndarray, color: int, origi
         mxy = float((a * dx * dy).sum() / area)
         myy = float((a * dy * dy).sum() / area)
         # a lossy copy smears a body's colour along a static it touches (see RADIUS_STATIC_MARGIN)
-        if area >= RADIUS_CLEAR_AREA and clear[i].any():
-            outline[i] = clear[i]
-        radius = float(np.sqrt((dx * dx + dy * dy)[outline[i]].max()))
+        outline = clear[i] if area >= RADIUS_CLEAR_AREA and clear[i].any() else filled[i]
+        radius = float(np.sqrt((dx * dx + dy * dy)[outline].max()))
         eye_x: float | None = None
         eye_y: float | None = None
         if has_eyes[i]:
