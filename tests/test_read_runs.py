@@ -407,16 +407,26 @@ def test_a_journal_of_another_run_is_refused(dummy: Path, monkeypatch: pytest.Mo
     assert "resuming" in capsys.readouterr().err
 
 
-def test_votes_are_an_input_of_the_run(dummy: Path, monkeypatch: pytest.MonkeyPatch,
-                                       capsys: pytest.CaptureFixture[str]) -> None:
+def _resumed_with(dummy: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str],
+                  *option: str) -> tuple[str, StandIn]:
+    """A run stopped at its second video, resumed with ``option`` (refused: its error text), then resumed as it was
+    run by a stand-in, returned with the text."""
     out = dummy / "preds.json"
     _interrupted(dummy, monkeypatch, out, VIDEOS[1])
     capsys.readouterr()
-    assert _read(dummy, out, "--quiet", "--votes", "0") == 2
-    assert "the journal of another run (--votes 6 there, 0 here)" in capsys.readouterr().err
+    assert _read(dummy, out, "--quiet", *option) == 2
+    err = capsys.readouterr().err
     stand_in = StandIn()
     monkeypatch.setattr(read_cli, "read_video", stand_in)
-    assert _read(dummy, out, "--quiet") == 0 and stand_in.votes == [6, 6]
+    assert _read(dummy, out, "--quiet") == 0
+    return err, stand_in
+
+
+def test_votes_are_an_input_of_the_run(dummy: Path, monkeypatch: pytest.MonkeyPatch,
+                                       capsys: pytest.CaptureFixture[str]) -> None:
+    err, stand_in = _resumed_with(dummy, monkeypatch, capsys, "--votes", "0")
+    assert "the journal of another run (--votes 6 there, 0 here)" in err
+    assert stand_in.votes == [6, 6]
     with pytest.raises(SystemExit):
         _read(dummy, dummy / "other.json", "--votes", "-1")
     assert "--votes: expected a whole number >= 0, got '-1'" in capsys.readouterr().err
@@ -424,23 +434,16 @@ def test_votes_are_an_input_of_the_run(dummy: Path, monkeypatch: pytest.MonkeyPa
 
 def test_the_run_length_is_an_input_of_the_run(dummy: Path, monkeypatch: pytest.MonkeyPatch,
                                                capsys: pytest.CaptureFixture[str]) -> None:
-    out = dummy / "preds.json"
-    _interrupted(dummy, monkeypatch, out, VIDEOS[1])
-    capsys.readouterr()
-    assert _read(dummy, out, "--quiet", "--steps", "200") == 2  # whole videos of 600 steps may be cut at 200
-    assert "the journal of another run (--steps 600 there, 200 here)" in capsys.readouterr().err
-    stand_in = StandIn()
-    monkeypatch.setattr(read_cli, "read_video", stand_in)
-    assert _read(dummy, out, "--quiet") == 0 and stand_in.steps == [600, 600]
+    err, stand_in = _resumed_with(dummy, monkeypatch, capsys, "--steps", "200")  # 600-step videos may be cut at 200
+    assert "the journal of another run (--steps 600 there, 200 here)" in err
+    assert stand_in.steps == [600, 600]
 
 
 def test_the_engine_is_an_input_of_the_run(dummy: Path, monkeypatch: pytest.MonkeyPatch,
                                            capsys: pytest.CaptureFixture[str]) -> None:
-    out = dummy / "preds.json"
-    _interrupted(dummy, monkeypatch, out, VIDEOS[1])
-    capsys.readouterr()
-    assert _read(dummy, out, "--quiet", "--engine", "pymunk") == 2
-    assert "the journal of another run (--engine auto there, pymunk here)" in capsys.readouterr().err
+    err, stand_in = _resumed_with(dummy, monkeypatch, capsys, "--engine", "pymunk")
+    assert "the journal of another run (--engine auto there, pymunk here)" in err
+    assert stand_in.engines == ["auto", "auto"]
     stand_in = StandIn()
     monkeypatch.setattr(read_cli, "read_video", stand_in)
     assert _read(dummy, dummy / "alone.json", "--quiet", "--engine", "pymunk") == 0
