@@ -128,8 +128,9 @@ ANCHOR_ITERATIONS = 5
 #: Each restart must push the first stray later; this caps their number, and so the time a video's restarts take.
 #: A lossy copy's noisier poses let runs stray sooner and need more restarts: at 6, 127 of a held-out seed's 346 H.264
 #: (crf 28) test copies used every one (57 of the files); at 12 those runs strayed 4.7 px at most at the median
-#: instead of 11.2 (the files' 57: 4.1 instead of 11.4) and answered 15 more questions of 881 right (MPEG-4 q 8
-#: copies: +2 of 501; the files: -1 of 346); 24 gained 3 of 177 more on the 29 copies still using all 12.
+#: instead of 11.2 (the files' 57: 4.1 instead of 11.4), and of their 881 questions 18 answers turned right and 3
+#: wrong (MPEG-4 q 8 copies: 6 and 4 of 501; the files: 0 and 1 of 346); 24 gained 3 of 177 more on the 29 copies
+#: still using all 12.
 MAX_ANCHORS = 12
 _ZERO6 = np.zeros(6)
 _ANCHOR_STEP_LIMIT = np.tile([0.5, 0.5, 0.5, 5.0, 5.0, 5.0], 16)
