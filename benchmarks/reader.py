@@ -48,6 +48,7 @@ import numpy as np
 from reader_calibration import reliability
 
 from craft_dsl.cli import main as cli_main
+from craft_dsl.dataset.folder import DatasetFolder
 from craft_dsl.errors import CraftError
 from craft_dsl.perception import SceneModel, export_perceived
 from craft_dsl.physics import simulate
@@ -193,6 +194,13 @@ class HeldOutQuestions(NamedTuple):
     by_video: dict[int, list[Question]]  # video index -> its test questions, text only
 
 
+def generation_settings(root: Path) -> tuple[str, int]:
+    """The engine and the run length (steps) the dataset at ``root`` was generated with, from its
+    ``generation_config.json`` (pymunk and CRAFT's 600 steps for a dataset without one)."""
+    config = DatasetFolder(root).config or {}
+    return str(config.get("engine", "pymunk")), int(config.get("steps", DEFAULT_STEPS))
+
+
 def held_out_questions(root: Path, all_questions: bool = False) -> HeldOutQuestions:
     """The test parts of both splits of the dataset in ``root`` (every question too, as part ``all``, with
     ``all_questions``), read through a questions file holding only (video_index, question_index, question)."""
@@ -261,9 +269,7 @@ def main() -> None:
     if args.decoders:
         compare_decoders([paths[v] for v in videos[: args.decoders]])
         return
-    config = root / "generation_config.json"
-    generation = json.loads(config.read_text()) if config.exists() else {}
-    engine, steps = generation.get("engine", "pymunk"), int(generation.get("steps", DEFAULT_STEPS))
+    engine, steps = generation_settings(root)
     jobs = []
     for v in videos:
         stats = json.loads((root / "questions" / f"qa_{v:06d}.json").read_text())["stats"]

@@ -32,7 +32,7 @@ from contextlib import nullcontext
 from pathlib import Path
 from typing import Any
 
-from reader import held_out_questions
+from reader import generation_settings, held_out_questions
 
 from craft_dsl.errors import CraftError
 from craft_dsl.physics import simulate
@@ -42,7 +42,7 @@ from craft_dsl.reader.answer import Question, answer_questions, find_videos
 from craft_dsl.reader.perceive import perceive_video
 from craft_dsl.verify.answers import answers_agree
 from craft_dsl.verify.categories import FAMILIES, family_of
-from craft_dsl.world import DEFAULT_STEPS, WorldSpec
+from craft_dsl.world import WorldSpec
 
 READER = "reader"
 
@@ -138,10 +138,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--json", help="write every row's answers here")
     args = parser.parse_args(argv)
     root = Path(args.dataset)
-    config = root / "generation_config.json"
-    settings = json.loads(config.read_text()) if config.exists() else {}
-    own = settings.get("engine", "pymunk")
-    steps = int(settings.get("steps", DEFAULT_STEPS))
+    own, steps = generation_settings(root)
     engines = [own] + [e for e in args.engines.split(",") if e and e != own]
     tests = held_out_questions(root)
     videos = sorted(tests.by_video)[: args.limit] if args.limit else sorted(tests.by_video)
