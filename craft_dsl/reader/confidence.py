@@ -55,7 +55,7 @@ ALTERNATIVES: dict[str, dict[str, str]] = {"engine": {}, "resimulate": {"counter
 #: The other engine of each engine the reader keeps.
 OTHER_ENGINE = {"pymunk": "box2d", "box2d": "pymunk"}
 #: The confidence of an answer taken from the reading its question names (:mod:`craft_dsl.perception.premise`): the
-#: share of such answers that were right on development videos (43 of 51, 128-px copies; see docs/reader.md),
+#: share of such answers that were right on development videos (43 of 51, 128-px copies; see docs/reader-history.md),
 #: rounded down.
 PREMISE_RATE = 0.8
 #: Answer types by the program's result type name.
