@@ -37,6 +37,7 @@ from .picture import Picture
 from .reconstruct import Reconstruction, fit_frames, reader_engines, reconstruct_best, slot_uid, start_frames
 from .timing import frame_offset as measure_offset
 from .timing import offsets_allowed
+from .tone import Tone, calibrated
 from .track import (
     TrackedObject,
     classify_shape,
@@ -70,6 +71,7 @@ class Perception:
     frame_offset: int = 0  # steps each frame shows earlier than the rate's rule (measured or given)
     picture: Picture | None = None  # where the picture lies in frames that are not square (None: the whole frame)
     frames_missing: int = 0  # frames missing inside the video, by their times (each frame read at its own time)
+    tone: Tone | None = None  # the colour grading measured and undone (None: the palette's colours, as drawn)
 
 
 def frame_steps_of(frames: int, fps: float | None = None, frame_steps: Sequence[int] | np.ndarray | None = None
@@ -115,6 +117,9 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     rate = rate if rate is not None else given
     times = timings if timings is not None else {}
     t = time.perf_counter()
+    frames, tone = calibrated(frames)  # a graded video's colours back to the palette (part of reading its pixels)
+    times["decode"] = times.get("decode", 0.0) + time.perf_counter() - t
+    t = time.perf_counter()
     layout = fit_layout(frames, scene=scene)
     model = layout_model(layout.scene)
     background = static_layer(WorldSpec(bodies=layout.statics), frames.shape[1])
@@ -153,7 +158,9 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
         {slot: obj.blobs for obj, slot in zip(objects, rec.slots) if slot >= 0},
         {s: run_end(trajectory, slot_uid(s, n_slots)) for s in rec.slots if s >= 0}, n_slots, rows)
     perceived = to_perceived(rec, objects, layout, rate, at_end, frame_offset)
-    return Perception(perceived, layout, objects, rec, times, rate, rows, frame_offset)
+    if tone is not None:
+        perceived = perceived.model_copy(update={"meta": {**(perceived.meta or {}), "tone": tone.to_json()}})
+    return Perception(perceived, layout, objects, rec, times, rate, rows, frame_offset, tone=tone)
 
 
 def detect_objects(frames: np.ndarray, background: np.ndarray, count: int | None, rows: np.ndarray,
