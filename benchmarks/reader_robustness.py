@@ -20,6 +20,10 @@ own as ``<id6>.<ext>``, the names ``craft-dsl read --videos FOLDER`` finds:
   renderer's convention (``craft-dsl render --fps 10``);
 * ``fps-5``: 5 frames per second by ffmpeg's ``fps=5`` filter, lossless H.264: frame i is the original's frame of
   step 12i-6, 6 steps before the renderer's.
+* ``range-tv``: a full-range picture squeezed to limited range and read back as full range (``scale=in_range=pc:
+  out_range=tv``: white at 235, black at 16), lossless H.264;
+* ``grade-strong``: ``eq=gamma=1.5:saturation=0.6`` (lighter mid-tones, paler colours), lossless H.264. The reader
+  measures a graded video's colours against the palette and undoes the grading (``craft_dsl.reader.tone``).
 
 The reader measures the step offset of a resampled copy (``craft_dsl.reader.timing``); each resampled variant's row
 says how many of its videos were read at which offset.
@@ -117,6 +121,9 @@ VARIANTS: dict[str, Variant] = {v.name: v for v in (
     Variant("fps-10", ".mp4", ("-vf", "fps=10", *LOSSLESS_H264), "libx264", "h264", fps=10),
     Variant("fps-10-down", ".mp4", ("-vf", "fps=10:round=down", *LOSSLESS_H264), "libx264", "h264", fps=10),
     Variant("fps-5", ".mp4", ("-vf", "fps=5", *LOSSLESS_H264), "libx264", "h264", fps=5),
+    # graded colours: a full-range picture read as limited range (washed out), and a strong grade (gamma, paler)
+    Variant("range-tv", ".mp4", ("-vf", "scale=in_range=pc:out_range=tv", *LOSSLESS_H264), "libx264", "h264"),
+    Variant("grade-strong", ".mp4", ("-vf", "eq=gamma=1.5:saturation=0.6", *LOSSLESS_H264), "libx264", "h264"),
 )}
 
 

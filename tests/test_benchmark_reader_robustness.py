@@ -51,7 +51,7 @@ def test_every_variant_but_the_original_is_copied(rr: ModuleType, copies: dict[s
 
 
 @pytest.mark.parametrize("name", ["h264-crf28", "mpeg4-q8", "scale-128", "scale-512", "fps-10", "fps-10-down",
-                                  "fps-5"])
+                                  "fps-5", "range-tv", "grade-strong"])
 def test_a_copy_decodes_with_its_codec_size_and_frames(rr: ModuleType, tiny: Path, copies: dict[str, Path],
                                                        name: str) -> None:
     variant = rr.VARIANTS[name]
@@ -202,7 +202,7 @@ def test_two_videos_in_two_variants(rr: ModuleType, users_dataset: Path, tmp_pat
 
 
 @pytest.mark.skipif(os.environ.get("CRAFT_DSL_SLOW") != "1",
-                    reason="reads 2 videos in all 8 variants (about 100 s on 2 busy cores): set CRAFT_DSL_SLOW=1")
+                    reason="reads 2 videos in all 10 variants (about 125 s on 2 busy cores): set CRAFT_DSL_SLOW=1")
 def test_the_whole_script_on_two_videos(rr: ModuleType, users_dataset: Path, tmp_path: Path,
                                         capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "figures.json"
