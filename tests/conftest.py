@@ -161,6 +161,12 @@ def users_dataset(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
+@pytest.fixture(scope="session")
+def video(users_dataset: Path) -> Path:
+    """The first video of ``users_dataset`` (an MPEG-1 file as ``generate`` writes it; read-only)."""
+    return sorted((users_dataset / "videos").rglob("*.mpg"))[0]
+
+
 # -- hypothesis profiles ----------------------------------------------------------------------------------------
 # "ci" (the default): hypothesis's 100 examples per test, no deadline (the machines are shared). "long": the fuzz
 # tests for about 30 minutes on 2 cores: python -m pytest tests/ -k fuzz --hypothesis-profile=long

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import json
 import subprocess
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
+from craft_dsl.perception.schema import PerceivedScene
+from craft_dsl.reader.answer import Question, answer_questions
 from craft_dsl.reader.perceive import Perception
 from craft_dsl.render.raster import world_to_pixel
 
@@ -32,3 +35,26 @@ def reencoded(source: Path, target: Path, video_filter: str = "null", options: S
                     str(source), "-vf", video_filter, *options, "-c:v", "libx264", "-crf", "18", "-pix_fmt",
                     "yuv420p", str(target)], check=True)
     return target
+
+
+def video_questions(dataset: Path, video: Path) -> list[Question]:
+    """Every question of ``video`` (named ``<video_index>.mpg``) in ``dataset``'s ``dataset_minimal.json``, text
+    only."""
+    index = int(video.stem)
+    records = [r for r in json.loads((dataset / "dataset_minimal.json").read_text()) if r["video_index"] == index]
+    return [Question(index, r["question_index"], r["question"]) for r in records]
+
+
+def assert_same_answers(original: PerceivedScene, copy: PerceivedScene, questions: Sequence[Question]) -> None:
+    """The two scenes answer at least 90% of ``questions`` alike."""
+    ours = [a.answer for a in answer_questions(original, questions)]
+    theirs = [a.answer for a in answer_questions(copy, questions)]
+    assert sum(a == b for a, b in zip(ours, theirs)) >= 0.9 * len(questions)
+
+
+def assert_read_alike(original: Perception, copy: Perception, questions: Sequence[Question]) -> None:
+    """A copy of a video is read as the original: the same layout, the same bodies' attributes, and at least 90% of
+    ``questions`` answered alike."""
+    assert copy.layout.scene == original.layout.scene
+    assert sorted(copy.reconstruction.attributes) == sorted(original.reconstruction.attributes)
+    assert_same_answers(original.scene, copy.scene, questions)

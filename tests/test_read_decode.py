@@ -13,11 +13,6 @@ import pytest
 from craft_dsl.reader.video import _CRAFT_FRAMES, _FrameBuffer, decode_sized, rgb_converter
 
 
-@pytest.fixture(scope="module")
-def video(users_dataset: Path) -> Path:
-    return sorted((users_dataset / "videos").rglob("*.mpg"))[0]
-
-
 def _frames_one_by_one(path: Path, size: int | None = None) -> np.ndarray:
     """PyAV's own conversion, frame by frame (the reference the converter must reproduce exactly)."""
     import av

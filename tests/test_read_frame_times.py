@@ -8,10 +8,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from reader_helpers import reencoded
+from reader_helpers import assert_same_answers, reencoded, video_questions
 
 from craft_dsl.cli import main
-from craft_dsl.reader.answer import Question, answer_questions
 from craft_dsl.reader.perceive import perceive_video
 from craft_dsl.reader.video import GAP_INTERVALS, decode, decode_video, steps_shown, timed_steps
 from craft_dsl.reader.whole import frames_missing
@@ -52,11 +51,6 @@ def test_the_reason_names_how_many_and_where() -> None:
     assert why is not None and "31 frames are missing inside it, the first 1.68 s into it" in why
 
 
-@pytest.fixture(scope="module")
-def video(users_dataset: Path) -> Path:
-    return sorted((users_dataset / "videos").rglob("*.mpg"))[0]
-
-
 def _dropped(video: Path, target: Path) -> Path:
     """``video`` without its frames 60-71 and 130 (0-based), each other frame at its own time."""
     return reencoded(video, target, r"select=not(between(n\,60\,71)+eq(n\,130))", ("-fps_mode", "vfr"))
@@ -73,13 +67,8 @@ def test_a_video_with_frames_dropped_is_read_at_its_frames_times(users_dataset: 
     kept = [k + 1 for k in range(len(decode(video))) if not (60 <= k <= 71 or k == 130)]
     assert perception.frames_missing == 13 and perception.frame_steps.tolist() == kept
     assert perception.scene.meta["frames_missing"] == 13 and perception.scene.meta["first_gap_s"] == 1.0
-    index = int(video.stem)
-    records = [r for r in json.loads((users_dataset / "dataset_minimal.json").read_text())
-               if r["video_index"] == index]
-    questions = [Question(index, r["question_index"], r["question"]) for r in records]
-    ours = [a.answer for a in answer_questions(perceive_video(video).scene, questions)]
-    theirs = [a.answer for a in answer_questions(perception.scene, questions)]
-    assert sum(a == b for a, b in zip(ours, theirs)) >= 0.9 * len(questions)
+    questions = video_questions(users_dataset, video)
+    assert_same_answers(perceive_video(video).scene, perception.scene, questions)
 
 
 def test_read_warns_of_frames_missing_inside_a_video(users_dataset: Path, video: Path, tmp_path: Path,

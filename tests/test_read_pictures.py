@@ -3,15 +3,13 @@ and read as a square."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
-from reader_helpers import reencoded
+from reader_helpers import assert_read_alike, reencoded, video_questions
 
 from craft_dsl.physics import simulate
-from craft_dsl.reader.answer import Question, answer_questions
 from craft_dsl.reader.perceive import perceive_video
 from craft_dsl.reader.picture import BAR_TOLERANCE, Picture, find_picture, slack
 from craft_dsl.reader.video import DECODERS, decode, decode_sized, decode_video
@@ -84,11 +82,6 @@ def test_find_picture_refuses_what_is_not_frames() -> None:
         find_picture(np.zeros((4, 4, 3), dtype=np.uint8))
 
 
-@pytest.fixture(scope="module")
-def video(users_dataset: Path) -> Path:
-    return sorted((users_dataset / "videos").rglob("*.mpg"))[0]
-
-
 @pytest.mark.parametrize("decoder", [d for d in DECODERS if d != "auto"])
 def test_a_pillarboxed_video_decodes_to_its_picture(video: Path, tmp_path: Path, decoder: str) -> None:
     boxed = reencoded(video, tmp_path / "boxed.mp4", "scale=480:480:flags=bicubic,pad=640:480:80:0:black")
@@ -116,16 +109,9 @@ def test_both_decoders_cut_and_scale_a_picture_alike(video: Path, tmp_path: Path
                                           "scale=320:240:flags=bicubic"], ids=["pillarboxed", "stretched"])
 def test_a_video_that_is_not_square_is_read_as_the_original(users_dataset: Path, video: Path, tmp_path: Path,
                                                           video_filter: str) -> None:
-    index = int(video.stem)
-    records = [r for r in json.loads((users_dataset / "dataset_minimal.json").read_text())
-               if r["video_index"] == index]
-    questions = [Question(index, r["question_index"], r["question"]) for r in records]
+    questions = video_questions(users_dataset, video)
     original = perceive_video(video)
     copy = perceive_video(reencoded(video, tmp_path / "copy.mp4", video_filter))
     assert copy.picture is not None and copy.scene.meta["picture"] == copy.picture.to_json()
     assert original.picture is None and "picture" not in original.scene.meta
-    assert copy.layout.scene == original.layout.scene
-    assert sorted(copy.reconstruction.attributes) == sorted(original.reconstruction.attributes)
-    ours = [a.answer for a in answer_questions(original.scene, questions)]
-    theirs = [a.answer for a in answer_questions(copy.scene, questions)]
-    assert sum(a == b for a, b in zip(ours, theirs)) >= 0.9 * len(questions)
+    assert_read_alike(original, copy, questions)

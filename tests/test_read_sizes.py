@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 
 import numpy as np
 import pytest
-from reader_helpers import reencoded
+from reader_helpers import assert_read_alike, reencoded, video_questions
 from scipy import ndimage as ndi
 
-from craft_dsl.reader.answer import Question, answer_questions
 from craft_dsl.reader.detect import PALETTE, SOFT_SHARE, Blob, color_table, lookup, soft_color_table
 from craft_dsl.reader.perceive import perceive_video
 from craft_dsl.reader.refine import refine
@@ -35,11 +33,6 @@ def _rescaled(source: Path, target: Path, width: int, height: int) -> Path:
     return reencoded(source, target, f"scale={width}:{height}:flags=bicubic")
 
 
-@pytest.fixture(scope="module")
-def video(users_dataset: Path) -> Path:
-    return sorted((users_dataset / "videos").rglob("*.mpg"))[0]
-
-
 @pytest.mark.parametrize("decoder", [d for d in DECODERS if d != "auto"])
 def test_a_larger_video_is_decoded_at_the_size_asked_for(video: Path, tmp_path: Path, decoder: str) -> None:
     big = _rescaled(video, tmp_path / "big.mp4", 512, 512)
@@ -49,17 +42,10 @@ def test_a_larger_video_is_decoded_at_the_size_asked_for(video: Path, tmp_path: 
 
 
 def test_a_512_pixel_copy_is_read_as_the_original(users_dataset: Path, video: Path, tmp_path: Path) -> None:
-    index = int(video.stem)
-    records = [r for r in json.loads((users_dataset / "dataset_minimal.json").read_text())
-               if r["video_index"] == index]
-    questions = [Question(index, r["question_index"], r["question"]) for r in records]
+    questions = video_questions(users_dataset, video)
     original = perceive_video(video)
     copy = perceive_video(_rescaled(video, tmp_path / "big.mp4", 512, 512))
-    assert copy.layout.scene == original.layout.scene
-    assert sorted(copy.reconstruction.attributes) == sorted(original.reconstruction.attributes)
-    ours = [a.answer for a in answer_questions(original.scene, questions)]
-    theirs = [a.answer for a in answer_questions(copy.scene, questions)]
-    assert sum(a == b for a, b in zip(ours, theirs)) >= 0.9 * len(questions)
+    assert_read_alike(original, copy, questions)
 
 
 @pytest.mark.parametrize("decoder", [d for d in DECODERS if d != "auto"])

@@ -45,11 +45,6 @@ def test_a_start_that_most_bodies_do_not_follow_is_a_cut_at_the_start() -> None:
     assert why is not None and "2 of its 3 bodies" in why and "7.0-12.3 px" in why and "cut at the start" in why
 
 
-@pytest.fixture(scope="module")
-def video(users_dataset: Path) -> Path:
-    return sorted((users_dataset / "videos").rglob("*.mpg"))[0]
-
-
 def test_a_whole_video_and_its_re_encoded_copy_are_whole(video: Path, tmp_path: Path) -> None:
     for path in (video, reencoded(video, tmp_path / "copy.mp4")):
         perception = perceive_video(path)

@@ -3,17 +3,15 @@ brought back to it; a video as drawn, or re-encoded, is read as it is."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from reader_helpers import reencoded
+from reader_helpers import assert_read_alike, reencoded, video_questions
 
 from craft_dsl.physics import simulate
-from craft_dsl.reader.answer import Question, answer_questions
 from craft_dsl.reader.perceive import perceive_video
 from craft_dsl.reader.tone import (
     CHROMA_TOLERANCE,
@@ -147,24 +145,12 @@ def test_correct_keeps_the_frames_shape_and_type(frames: np.ndarray) -> None:
     assert out.shape == frames[:3].shape and out.dtype == np.uint8
 
 
-@pytest.fixture(scope="module")
-def video(users_dataset: Path) -> Path:
-    return sorted((users_dataset / "videos").rglob("*.mpg"))[0]
-
-
 def test_a_limited_range_copy_is_read_as_the_original(users_dataset: Path, video: Path, tmp_path: Path) -> None:
-    index = int(video.stem)
-    records = [r for r in json.loads((users_dataset / "dataset_minimal.json").read_text())
-               if r["video_index"] == index]
-    questions = [Question(index, r["question_index"], r["question"]) for r in records]
+    questions = video_questions(users_dataset, video)
     original = perceive_video(video)
     # a full-range picture squeezed into limited range and read back as full range: washed out (white at 235)
     copy = perceive_video(reencoded(video, tmp_path / "washed.mp4", "scale=in_range=pc:out_range=tv"))
     assert original.tone is None and "tone" not in original.scene.meta
     assert copy.tone is not None and copy.scene.meta["tone"] == copy.tone.to_json()
     assert copy.tone.offset > 10.0
-    assert copy.layout.scene == original.layout.scene
-    assert sorted(copy.reconstruction.attributes) == sorted(original.reconstruction.attributes)
-    ours = [a.answer for a in answer_questions(original.scene, questions)]
-    theirs = [a.answer for a in answer_questions(copy.scene, questions)]
-    assert sum(a == b for a, b in zip(ours, theirs)) >= 0.9 * len(questions)
+    assert_read_alike(original, copy, questions)
