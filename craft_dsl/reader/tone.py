@@ -116,9 +116,14 @@ class Tone:
         return float(np.abs(self.apply(ycc)[:, 0] - ycc[:, 0]).max())
 
     @property
+    def gain(self) -> complex:
+        """The chroma's complex gain ``k`` (``matrix`` is its 2x2 form)."""
+        return complex(self.matrix[0], self.matrix[2])
+
+    @property
     def chroma_change(self) -> float:
         """``|k - 1|``: how much the grading changes chroma (0: not at all)."""
-        return abs(complex(self.matrix[0], self.matrix[2]) - 1.0)
+        return abs(self.gain - 1.0)
 
     @property
     def graded(self) -> bool:
@@ -199,13 +204,12 @@ def _chroma_gain(source: np.ndarray, seen: np.ndarray, weight: np.ndarray) -> co
 
 
 def _fit(colours: np.ndarray, counts: np.ndarray, weight: np.ndarray, start: float, white: float, black: float
-         ) -> tuple[Tone, float]:
+         ) -> Tone:
     palette = to_ycc(PICTURE_RGB)
     seen = to_ycc(colours)
     scale = max(white - black, 1.0) / 255.0
     tone = Tone(black, scale, 1.0, (start, 0.0, 0.0, start), 0.0, 0.0, 0)
     pairing: tuple[np.ndarray, np.ndarray] | None = None
-    cost = np.inf
     for _ in range(ITERATIONS):
         image = tone.apply(palette)
         dist = np.linalg.norm(seen[:, None, :] - image[None], axis=-1)
@@ -226,8 +230,8 @@ def _fit(colours: np.ndarray, counts: np.ndarray, weight: np.ndarray, start: flo
     image = tone.apply(palette)
     dist = np.minimum(np.linalg.norm(seen[:, None, :] - image[None], axis=-1).min(axis=1), PAIR_DISTANCE)
     cost = float(np.sqrt((dist ** 2 * weight).sum() / weight.sum()))  # unpaired colours count at the pairing limit
-    deviation = float(np.linalg.norm(from_ycc(tone.apply(palette)) - PICTURE_RGB, axis=1).max())
-    return Tone(tone.offset, tone.scale, tone.gamma, tone.matrix, cost, deviation, tone.pairs), cost
+    deviation = float(np.linalg.norm(from_ycc(image) - PICTURE_RGB, axis=1).max())
+    return Tone(tone.offset, tone.scale, tone.gamma, tone.matrix, cost, deviation, tone.pairs)
 
 
 def measure_tone(frames: np.ndarray) -> Tone | None:
@@ -242,21 +246,21 @@ def measure_tone(frames: np.ndarray) -> Tone | None:
     darkest = float(luma[order][np.searchsorted(np.cumsum(counts[order]), LARGE_SHARE * counts.sum())])
     black = darkest if darkest <= DARKEST_BLACK else 0.0  # no black to be seen: taken as drawn
     fits = [_fit(colours, counts, weight, start, white, black) for start in CHROMA_STARTS]
-    fits = [f for f in fits if f[0].pairs >= 3 and np.isfinite(f[1])]
+    fits = [f for f in fits if f.pairs >= 3]
     if not fits:
         return None
-    # the start whose fit leaves the flat colours nearest the palette's images (an unpaired one at the limit); a
-    # paler start only where it fits clearly better than the first (one body's colour can pair either way)
-    best, best_cost = fits[0]
-    for tone, cost in fits[1:]:
-        if cost < START_MARGIN * best_cost:
-            best, best_cost = tone, cost
+    # the start whose fit leaves the flat colours nearest the palette's images (its residual, an unpaired one at the
+    # limit); a paler start only where it fits clearly better than the first (one body's colour can pair either way)
+    best = fits[0]
+    for tone in fits[1:]:
+        if tone.residual < START_MARGIN * best.residual:
+            best = tone
     return best if plausible(best) else None
 
 
 def plausible(tone: Tone) -> bool:
     """Whether ``tone`` is a grading a video tool makes (:data:`PLAUSIBLE`), not a pairing gone wrong."""
-    gain = abs(complex(tone.matrix[0], tone.matrix[2]))
+    gain = abs(tone.gain)
     return (PLAUSIBLE["offset"][0] <= tone.offset <= PLAUSIBLE["offset"][1]
             and PLAUSIBLE["scale"][0] <= tone.scale <= PLAUSIBLE["scale"][1]
             and PLAUSIBLE["gain"][0] <= gain <= PLAUSIBLE["gain"][1])
