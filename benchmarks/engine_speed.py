@@ -1,7 +1,7 @@
-"""Generation speed of each engine, measured in the same run: ``craft-dsl generate --engine E`` for pymunk, box2d and
-the original CRAFT simulator, without and with videos.
+"""Generation speed of each engine, measured in the same run: ``craft-dsl generate --engine E`` for box2d (the
+default), pymunk and the original CRAFT simulator, without and with videos.
 
-Run: ``python benchmarks/engine_speed.py [--size 20] [--workers 2] [--engines pymunk,box2d,original]``.
+Run: ``python benchmarks/engine_speed.py [--size 20] [--workers 2] [--engines box2d,pymunk,original]``.
 
 Each configuration is one whole ``craft-dsl generate`` subprocess (default settings: 600 steps, 3 perturbations,
 all 67 templates; scenes 1-20 in turn) into a fresh folder; the figure is videos per minute of wall time, and the
@@ -38,7 +38,8 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=20, help="videos per run (default 20: scenes 1-20 once)")
     parser.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
-    parser.add_argument("--engines", default="pymunk,box2d,original", help="engines, the first is the baseline")
+    parser.add_argument("--engines", default="box2d,pymunk,original",
+                        help="engines, the first is the baseline (default: the default engine first)")
     args = parser.parse_args()
     engines = args.engines.split(",")
     print(f"load average before: {os.getloadavg()[0]:.2f}; {args.size} videos, {args.workers} workers")

@@ -63,6 +63,7 @@ from craft_dsl.render.raster import world_to_pixel
 from craft_dsl.verify import read_minimal, read_split, score
 from craft_dsl.verify.answers import answers_agree
 from craft_dsl.verify.categories import family_of
+from craft_dsl.vocabulary import DEFAULT_ENGINE, LEGACY_DEFAULT_ENGINE
 from craft_dsl.world import DEFAULT_STEPS
 
 STEP_TOLERANCE = 2
@@ -110,10 +111,11 @@ def _position_errors(uid_map: dict[int, int], ours_world: Any, ot: Any, tt: Any)
 
 def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth_answers: dict[str, Any],
               engines: list[str] | None = None, votes: int = VOTES) -> dict[str, Any]:
-    """Read one video as the reader does, then compare everything with the ground truth."""
+    """Read one video as ``craft-dsl read`` does (the dataset's engine tried first), then compare everything with the
+    ground truth."""
     t = time.perf_counter()
     try:
-        perception = perceive_video(path, engines=engines)
+        perception = perceive_video(path, engines=engines, first_engine=stats["engine"])
     except CraftError as err:
         return {"path": path, "error": str(err), "questions": [q.key for q in questions]}
     perceived_s = time.perf_counter() - t
@@ -198,7 +200,7 @@ def generation_settings(root: Path) -> tuple[str, int]:
     """The engine and the run length (steps) the dataset at ``root`` was generated with, from its
     ``generation_config.json`` (pymunk and CRAFT's 600 steps for a dataset without one)."""
     config = DatasetFolder(root).config or {}
-    return str(config.get("engine", "pymunk")), int(config.get("steps", DEFAULT_STEPS))
+    return str(config.get("engine", LEGACY_DEFAULT_ENGINE)), int(config.get("steps", DEFAULT_STEPS))
 
 
 def held_out_questions(root: Path, all_questions: bool = False) -> HeldOutQuestions:
@@ -232,9 +234,10 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=777001, help="seed of the generated dataset")
     parser.add_argument("--out", help="folder of the generated dataset")
     parser.add_argument("--engines", help="the reader's physics engines, in order (default: the reader's own choice, "
-                                          "pymunk then box2d); e.g. pymunk to compare")
-    parser.add_argument("--engine", default="pymunk",
-                        help="physics (and renderer) of the generated dataset: pymunk, box2d or original")
+                                          "the dataset's engine first, as craft-dsl read); e.g. pymunk to compare")
+    parser.add_argument("--engine", default=DEFAULT_ENGINE,
+                        help="physics (and renderer) of the generated dataset: box2d (the default), pymunk or "
+                             "original")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--votes", type=int, default=VOTES,
                         help=f"perturbed replays per counterfactual question (craft-dsl read --votes; default {VOTES})")

@@ -66,7 +66,7 @@ def run_video(path: str, questions: list[Question], scene: int, seed: int, steps
     seconds: dict[str, float] = {}
     t = time.perf_counter()
     try:
-        perception = perceive_video(path)
+        perception = perceive_video(path, first_engine=engines[0])  # the dataset's own engine first, as read does
     except CraftError as err:
         rows[READER] = [f"error: {err}"] * len(questions)
         fitted = None

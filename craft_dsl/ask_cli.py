@@ -11,7 +11,7 @@ from .program import to_json
 from .question_parsing import match_question
 from .ranges import parse_scene
 from .types import INVALID
-from .vocabulary import DEFAULT_ENGINE, ENGINES
+from .vocabulary import DEFAULT_ENGINE, ENGINES, engine_help
 
 
 def answer_in_words(answer: Any) -> str:
@@ -56,7 +56,7 @@ def add_commands(sub: Any) -> None:
                      help="or simulate this scene layout (1-20 or a layout file) live (default: none)")
     ask.add_argument("--seed", type=int, default=0, help="seed of the live simulation")
     ask.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES,
-                     help="physics engine of the live simulation")
+                     help=engine_help(ENGINES, " of the live simulation (default: %(default)s)"))
     ask.add_argument("--json", action="store_true",
                      help="print {question, template_id, paraphrase, params, program, answer} as JSON")
     ask.add_argument("--program-only", action="store_true",

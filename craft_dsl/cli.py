@@ -15,7 +15,7 @@ from .files import read_json, read_text
 from .program import Program, format_value, to_json
 from .ranges import parse_scene
 from .registry import MODULES
-from .vocabulary import DEFAULT_ENGINE, ENGINES
+from .vocabulary import DEFAULT_ENGINE, ENGINES, engine_help
 
 EXIT_USAGE = 2
 #: Program files and node lists larger than this are refused (a 5,000-binding program is about 200 KB).
@@ -170,7 +170,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="or simulate this scene layout (1-20 or a layout file) live (default: none)")
     run.add_argument("--seed", type=int, default=0, help="seed of the live simulation (default 0)")
     run.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES,
-                     help="physics engine of the live simulation (default pymunk)")
+                     help=engine_help(ENGINES, " of the live simulation (default: %(default)s)"))
     run.add_argument("--nodes", help="read the program as a CLEVR/CRAFT node list from this JSON file "
                                      "(default: none, the PROGRAM argument)")
     run.add_argument("--param", action="append", default=[], metavar="<Z>=small",

@@ -567,8 +567,9 @@ def simulations(
 
     ``steps`` is the length of the video (default 600).
 
-    With ``live=True``: a live physics run (:func:`craft_dsl.physics.simulate`, pymunk) of ``steps`` steps
-    (default 240) of a world drawn by :func:`world_specs` (``scene``: as there), with clean counterfactuals.
+    With ``live=True``: a live physics run (:func:`craft_dsl.physics.simulate`, the default engine, Box2D) of
+    ``steps`` steps (default 240) of a world drawn by :func:`world_specs` (``scene``: as there), with clean
+    counterfactuals.
     """
     if steps is not None and (isinstance(steps, bool) or not isinstance(steps, int) or steps < 1):
         raise StrategyArgumentError(f"simulations(): steps must be an int >= 1, got {steps!r}")

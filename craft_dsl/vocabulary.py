@@ -5,6 +5,8 @@ This module is the single source of truth for every closed set of names in craft
 
 from __future__ import annotations
 
+from typing import Final
+
 SHAPES: tuple[str, ...] = ("cube", "triangle", "circle")
 COLORS: tuple[str, ...] = ("gray", "red", "blue", "green", "brown", "purple", "cyan", "yellow")
 SIZES: tuple[str, ...] = ("small", "large")
@@ -40,9 +42,29 @@ VALUE_ALIASES: dict[str, str] = {
     "grey": "gray",
 }
 
-#: Physics engines behind the simulator protocol (pybox2d is the optional extra ``box2d``).
+#: Physics engines behind the simulator protocol.
 ENGINES: tuple[str, ...] = ("pymunk", "box2d")
-DEFAULT_ENGINE = "pymunk"
+#: The engine every command and function that simulates uses unless told otherwise: Box2D (pybox2d) with the
+#: original's rolling loss and contact flicker, the engine whose answers agree with the original CRAFT simulator's
+#: more often than the original agrees with its own 2% perturbation (docs/original.md).
+DEFAULT_ENGINE: Final = "box2d"
+#: The default before Box2D: what a ``generation_config.json`` that names no engine was made with.
+LEGACY_DEFAULT_ENGINE: Final = "pymunk"
+#: What ``--help`` says of each engine: where it stands against the original simulator.
+ENGINE_NOTES: dict[str, str] = {
+    "box2d": "box2d, the default: its answers agree with the original CRAFT simulator's more often than the "
+             "original's own 2%% perturbation does",
+    "pymunk": "pymunk: less often than that floor, kept for the datasets made with it",
+    "original": "original: the original CRAFT simulator, built by tools/original/build.sh",
+}
+
+
+def engine_help(names: tuple[str, ...], extra: str = "") -> str:
+    """The ``--engine`` help of a command offering ``names`` (argparse text: ``%%`` is a percent sign)."""
+    notes = "; ".join(ENGINE_NOTES[n] for n in (DEFAULT_ENGINE, *(n for n in names if n != DEFAULT_ENGINE))
+                      if n in ENGINE_NOTES)
+    return f"physics engine ({notes}){extra}"
+
 #: The original CRAFT simulator, driven as a separate built program (``tools/original/build.sh``): it records runs
 #: (start and end states, events) rather than stepping a world, so it serves the commands that simulate scenes and
 #: compare engines, not those that need per-frame trajectories (rendering, the reader, perceived scenes).

@@ -43,12 +43,12 @@ def test_the_datasets_own_engine_from_the_true_start_gives_the_datasets_answers(
                                                                               users_dataset: Path,
                                                                               tmp_path: Path) -> None:
     out = tmp_path / "rows.json"
-    bench.main(["--dataset", str(users_dataset), "--engines", "pymunk", "--limit", "1", "--workers", "1",
+    bench.main(["--dataset", str(users_dataset), "--engines", "box2d", "--limit", "1", "--workers", "1",
                 "--json", str(out)])
     (video,) = json.loads(out.read_text())["results"]
     truth = bench.held_out_questions(users_dataset).truth
     rows = video["rows"]
-    assert set(rows) == {"reader", "pymunk from the true start", "pymunk from the reader's start"}
+    assert set(rows) == {"reader", "box2d from the true start", "box2d from the reader's start"}  # the default
     assert all(len(answers) == len(video["keys"]) for answers in rows.values())
     assert video["keys"] and all(answers_agree(a, truth[k])
-                                 for k, a in zip(video["keys"], rows["pymunk from the true start"]))
+                                 for k, a in zip(video["keys"], rows["box2d from the true start"]))

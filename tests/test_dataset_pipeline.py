@@ -51,7 +51,7 @@ def group(tid: str, answers: list[Any], start_video: int = 0) -> list[dict[str, 
 def test_config_defaults_and_errors() -> None:
     c = P.GenerationConfig.make(size=40)
     assert c.scenes == tuple(range(1, 21)) and c.steps == 600 and c.perturbations == 3 and c.amount == 0.02
-    assert c.workers == 1 and c.videos is False and c.engine == "pymunk" and len(c.templates) == 67
+    assert c.workers == 1 and c.videos is False and c.engine == "box2d" and len(c.templates) == 67
     for bad, field in (({"size": 0}, "size"), ({"size": 4, "scenes": (1, 21)}, "scenes"),
                        ({"size": 4, "scenes": ()}, "scenes"), ({"size": 4, "templates": ("cause_9",)}, "templates"),
                        ({"size": 4, "workers": 0}, "workers"), ({"size": 4, "colour": 1}, "colour")):

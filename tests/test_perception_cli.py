@@ -14,11 +14,17 @@ from craft_dsl.dataset.questions import generate_questions
 from craft_dsl.perception import load_perceived
 from craft_dsl.physics import simulate
 
+#: The engine these precision tests run: the derivation's tolerance and the fit's sub-pixel drift were measured on
+#: pymunk's runs (true circles, one contact); on Box2D's (the default), whose circles' contacts flicker, the
+#: figures are in docs/perception.md.
+PRECISION_ENGINE = "pymunk"
+
 
 @pytest.fixture(scope="module")
 def exported(tmp_path_factory: pytest.TempPathFactory) -> Path:
     path = tmp_path_factory.mktemp("perceive") / "p.json"
-    assert main(["perceive", "export", "--scene", "3", "--seed", "7", "--out", str(path)]) == 0
+    assert main(["perceive", "export", "--scene", "3", "--seed", "7", "--engine", PRECISION_ENGINE,
+                 "--out", str(path)]) == 0
     return path
 
 
@@ -31,7 +37,7 @@ def test_export_writes_a_valid_ground_truth_scene(exported: Path, capsys: pytest
 
 def test_run_and_distribution(exported: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     program = "Count(FilterDynamic(FilterObjectsFromEvents(FilterCollideGround(Events()))))"
-    true = simulate(3, seed=7)
+    true = simulate(3, seed=7, engine=PRECISION_ENGINE)
     from craft_dsl import parse
 
     assert main(["perceive", "run", program, "--perceived", str(exported), "--json"]) == 0
@@ -51,7 +57,7 @@ def test_answer_a_question_file_with_truth(exported: Path, tmp_path: Path,
                                           capsys: pytest.CaptureFixture[str]) -> None:
     import numpy as np
 
-    sim = simulate(3, seed=7)
+    sim = simulate(3, seed=7, engine=PRECISION_ENGINE)
     records = generate_questions(sim, np.random.default_rng(0), video_index=0, video_filename="v.mp4")
     questions = tmp_path / "q.json"
     questions.write_text(json.dumps(records), encoding="utf-8")
@@ -103,7 +109,7 @@ def test_answer_picks_one_video_of_a_dataset_file(exported: Path, tmp_path: Path
 
     from craft_dsl.perception.answering import read_question_file
 
-    sim = simulate(3, seed=7)
+    sim = simulate(3, seed=7, engine=PRECISION_ENGINE)
     records = generate_questions(sim, np.random.default_rng(0), video_index=4, video_filename="v.mp4")[:5]
     dataset = [{"questions": {"info": {"video_index": v}, "questions": [dict(r, video_index=v) for r in records]}}
                for v in (3, 4)]

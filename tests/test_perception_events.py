@@ -21,6 +21,12 @@ def _keys(events: object) -> Counter[Key]:
                    if e.type not in ("Start", "End"))
 
 
+#: The engine these precision tests run: the derivation's tolerance and the fit's sub-pixel drift were measured on
+#: pymunk's runs (true circles, one contact); on Box2D's (the default), whose circles' contacts flicker, the
+#: figures are in docs/perception.md.
+PRECISION_ENGINE = "pymunk"
+
+
 def _derived(sim: LiveSimulation) -> Counter[Key]:
     model = SceneModel(export_perceived(sim), ExecutionOptions(events="derived"))
     return _keys(events_from_log(model.derived_log))
@@ -28,15 +34,33 @@ def _derived(sim: LiveSimulation) -> Counter[Key]:
 
 def test_a_drop_bounce_and_roll_into_the_basket_is_derived_exactly() -> None:
     sim = simulate(world(make_dynamic(0, "circle", "red", "small", (-10.0, 15.0), velocity=(6.0, 0.0)),
-                         make_dynamic(0, "cube", "blue", "large", (BASKET_AT[0], 8.0))), steps=240)
+                         make_dynamic(0, "cube", "blue", "large", (BASKET_AT[0], 8.0))), steps=240,
+                   engine=PRECISION_ENGINE)
     truth = _keys(sim.events)
     assert {k[0] for k in truth} >= {"Collision", "EnterBasket"}
     assert _derived(sim) == truth
 
 
+def test_derived_events_of_a_box2d_run_flicker_as_the_engine_s_contacts_do() -> None:
+    """Box2D's circles' contacts with statics break and begin again as the original's 128-gons' do; the log derived
+    from the tracks is split the same way, so a circle rolling on a platform collides with it as often in both
+    (22 times here; 2 Collisions and one long touch for pymunk's true circle)."""
+    sim = simulate(world(make_dynamic(0, "circle", "red", "small", (-10.0, 15.0), velocity=(6.0, 0.0)),
+                         make_dynamic(0, "cube", "blue", "large", (BASKET_AT[0], 8.0))), steps=240, engine="box2d")
+    model = SceneModel(export_perceived(sim), ExecutionOptions(events="derived"))
+
+    def kinds(events: object) -> Counter[tuple[str, frozenset[int]]]:
+        return Counter((e.type, frozenset(e.objects)) for e in events  # type: ignore[attr-defined]
+                       if e.type not in ("Start", "End"))
+
+    truth = kinds(sim.events)
+    assert max(n for (kind, _), n in truth.items() if kind == "Collision") >= 10  # the flicker is there
+    assert kinds(events_from_log(model.derived_log)) == truth
+
+
 @pytest.mark.parametrize("scene, seed", [(3, 7), (13, 0)])
 def test_derived_events_match_the_simulator_within_the_documented_tolerance(scene: int, seed: int) -> None:
-    sim = simulate(scene, seed)
+    sim = simulate(scene, seed, engine=PRECISION_ENGINE)
     truth, derived = _keys(sim.events), _derived(sim)
     total = sum(truth.values())
     exact = truth & derived
@@ -58,7 +82,7 @@ def test_derived_events_match_the_simulator_within_the_documented_tolerance(scen
 
 @pytest.mark.parametrize("scene, seed", [(3, 7), (9, 0)])
 def test_perceived_events_imply_a_log_that_gives_them_back(scene: int, seed: int) -> None:
-    sim = simulate(scene, seed)
+    sim = simulate(scene, seed, engine=PRECISION_ENGINE)
     model = SceneModel(export_perceived(sim))
     back = events_from_log(model.base_run.log)
     assert [(e.type, e.step, e.objects) for e in back] == [(e.type, e.step, e.objects) for e in sim.events]

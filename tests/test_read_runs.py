@@ -335,6 +335,7 @@ class StandIn:
         self.votes: list[Any] = []  # --votes of each call
         self.steps: list[Any] = []  # --steps of each call
         self.engines: list[Any] = []  # --engine of each call
+        self.first_engines: list[Any] = []  # the engine tried first (the dataset's), of each call
         self.raise_at = raise_at or {}
 
     def __call__(self, path: str, questions: list[Question], *args: Any) -> dict[str, Any]:
@@ -343,10 +344,11 @@ class StandIn:
             raise self.raise_at[index]
         self.read.append(index)
         self.paths.append(path)
-        _decoder, _distribution, _samples, votes, steps, engine = args
+        _decoder, _distribution, _samples, votes, steps, engine, first_engine = args
         self.votes.append(votes)
         self.steps.append(steps)
         self.engines.append(engine)
+        self.first_engines.append(first_engine)
         return {"path": path, "answers": [Answer(q, "True", None, f"program {q.key}") for q in questions],
                 "scene": json.dumps({"video": index}), "timings": {"perception": 0.5}}
 
@@ -458,14 +460,33 @@ def test_the_engine_is_an_input_of_the_run(dummy: Path, monkeypatch: pytest.Monk
 def test_a_video_is_reconstructed_with_the_engine_given_alone(monkeypatch: pytest.MonkeyPatch) -> None:
     seen: list[Any] = []
 
-    def perceive(path: str, decoder: str, engines: Any = None) -> Any:
-        seen.append(engines)
+    def perceive(path: str, decoder: str, engines: Any = None, first_engine: str | None = None) -> Any:
+        seen.append((engines, first_engine))
         raise ReaderError(f"{path}: stand-in")
 
     monkeypatch.setattr("craft_dsl.reader.perceive.perceive_video", perceive)
     for engine, engines in (("auto", None), ("pymunk", ("pymunk",)), ("box2d", ("box2d",))):
         assert read_cli.read_video("v.mp4", [], engine=engine) == {"path": "v.mp4", "error": "v.mp4: stand-in"}
-        assert seen.pop() == engines
+        assert seen.pop() == (engines, None)
+    read_cli.read_video("v.mp4", [], first_engine="pymunk")
+    assert seen.pop() == (None, "pymunk")
+
+
+def test_read_tries_the_engine_its_dataset_names_first(dummy: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A generation_config.json beside the questions (or above the videos) names the engine tried first; one that
+    names none means pymunk; without one the reader's default order stands (None)."""
+    for config, first in ((None, None), ({"engine": "box2d"}, "box2d"), ({"engine": "pymunk"}, "pymunk"),
+                          ({"format_version": 3}, "pymunk"), ({"engine": "original"}, "original")):
+        if config is not None:
+            (dummy / "generation_config.json").write_text(json.dumps(config))
+        stand_in = StandIn()
+        monkeypatch.setattr(read_cli, "read_video", stand_in)
+        out = dummy / f"out_{first}_{len(config or {})}.json"
+        assert _read(dummy, out, "--quiet") == 0
+        assert stand_in.first_engines == [first] * len(VIDEOS)
+    assert read_cli.dataset_engine([str(dummy / "videos" / "000000.mp4")]) == "original"  # the folder above
+    assert reconstruct.reader_engines(first="pymunk") == ("pymunk", "box2d")
+    assert reconstruct.reader_engines(first="original") == ("box2d",)
 
 
 def test_a_torn_last_line_is_dropped_and_its_video_read_again(dummy: Path, monkeypatch: pytest.MonkeyPatch,

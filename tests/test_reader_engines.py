@@ -16,6 +16,7 @@ from craft_dsl.perception import PerceivedScene, SceneModel, export_perceived
 from craft_dsl.perception.world import ExecutionOptions
 from craft_dsl.physics import simulate
 from craft_dsl.reader import reconstruct as R
+from craft_dsl.vocabulary import DEFAULT_ENGINE
 
 # scene 2, seed 0, 300 steps of Box2D: without the large blue circle one object hits the ground in Box2D, none in
 # pymunk (so executing the scene with the wrong engine gives another answer)
@@ -37,10 +38,10 @@ def test_an_exported_live_run_names_its_engine_and_is_executed_with_it(engine: s
     assert SceneModel(scene, ExecutionOptions(engine="pymunk")).engine.name == "pymunk"  # an explicit choice wins
 
 
-def test_a_scene_that_names_no_engine_runs_with_pymunk(e1: Any) -> None:
+def test_a_scene_that_names_no_engine_runs_with_the_default_engine(e1: Any) -> None:
     scene = export_perceived(e1)  # a recorded simulation: no engine made it
     assert scene.physics is None
-    assert SceneModel(scene).engine.name == "pymunk"
+    assert SceneModel(scene).engine.name == DEFAULT_ENGINE == "box2d"
 
 
 def test_counterfactuals_of_a_box2d_scene_are_box2d_counterfactuals() -> None:
@@ -208,7 +209,8 @@ def test_a_later_first_run_takes_the_measurements_already_made_and_holds_what_it
 
 
 def test_without_box2d_the_reader_uses_pymunk_alone(monkeypatch: pytest.MonkeyPatch) -> None:
-    assert R.reader_engines() == ("pymunk", "box2d")
+    assert R.reader_engines() == ("box2d", "pymunk")  # the default engine first
+    assert R.reader_engines(first="pymunk") == ("pymunk", "box2d")  # the engine the dataset names first
     assert R.reader_engines(aliased=True) == ("box2d",)  # the original renderer's look: its physics
     monkeypatch.setitem(sys.modules, "Box2D", None)
     assert R.reader_engines() == ("pymunk",)

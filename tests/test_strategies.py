@@ -41,7 +41,18 @@ from craft_dsl.strategies import (
     world_specs,
 )
 from craft_dsl.templates import first_instance, paraphrases, templates
-from craft_dsl.vocabulary import COLLISION, COLORS, END, ENTER_BASKET, SHAPES, SIZES, START, TOUCH_END, TOUCH_START
+from craft_dsl.vocabulary import (
+    COLLISION,
+    COLORS,
+    DEFAULT_ENGINE,
+    END,
+    ENTER_BASKET,
+    SHAPES,
+    SIZES,
+    START,
+    TOUCH_END,
+    TOUCH_START,
+)
 from tests.dsl_values import check_run
 from tests.program_text import Node, inlined, overloads_used, read
 
@@ -350,7 +361,7 @@ def test_drawn_simulations_are_valid_recorded_files(sim: Simulation) -> None:
 @given(simulations(live=True, steps=120, scene=[1, 3]))
 def test_live_simulations_are_consistent(sim: Simulation) -> None:
     assert sim.steps == 120 and sim.world is not None and sim.world.scene_id in (1, 3)
-    assert sim.meta["engine"] == "pymunk"
+    assert sim.meta["engine"] == DEFAULT_ENGINE
     check_simulation(sim)
 
 

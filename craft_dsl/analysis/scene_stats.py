@@ -10,7 +10,7 @@ from pathlib import Path
 from ..physics.engine import PhysicsEngine
 from ..physics.live import get_engine, simulate
 from ..simulation import Simulation
-from ..vocabulary import COLLISION, ENTER_BASKET, ORIGINAL_ENGINE
+from ..vocabulary import COLLISION, DEFAULT_ENGINE, ENTER_BASKET, ORIGINAL_ENGINE
 from ..world import DEFAULT_STEPS, WorldSpec
 
 
@@ -51,7 +51,7 @@ def run_outcomes(sim: Simulation) -> tuple[int, int, int, int]:
     return len(sim.dynamic_ids), basket, ground, len(sim.events)
 
 
-def scene_stats(scene: int | str | Path | WorldSpec, seeds: Iterable[int], engine: str | PhysicsEngine = "pymunk",
+def scene_stats(scene: int | str | Path | WorldSpec, seeds: Iterable[int], engine: str | PhysicsEngine = DEFAULT_ENGINE,
                 steps: int = DEFAULT_STEPS) -> SceneStats:
     """Averages over ``seeds`` of a scene (an id, a layout file, or one concrete WorldSpec); ``engine`` may also be
     "original", the original simulator."""

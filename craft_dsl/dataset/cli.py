@@ -9,12 +9,16 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..errors import CraftError
+from ..files import read_json
 from ..parallel import add_workers_option
 from ..ranges import parse_ranges, parse_scenes
-from ..vocabulary import ORIGINAL_ENGINE, SIMULATORS
+from ..vocabulary import DEFAULT_ENGINE, ORIGINAL_ENGINE, SIMULATORS, engine_help
+
+if TYPE_CHECKING:
+    from .pipeline import GenerationConfig
 
 #: Frame rates ``--downsampled`` accepts (the videos run at 60 frames per second).
 DOWNSAMPLED_FPS = (1, 60)
@@ -44,13 +48,32 @@ class _Bars:
         self.bars.clear()
 
 
-def cmd_generate(args: argparse.Namespace) -> int:
-    from .executors import make_executor
-    from .pipeline import GenerationConfig, generate_dataset
+#: The options that decide what a dataset holds: with ``--config`` the file decides them, so none may be given.
+CONTENT_OPTIONS = {"size": None, "seed": 0, "scenes": None, "steps": 600, "perturbations": 3, "amount": 0.02,
+                   "engine": None, "templates": None, "no_balance": False, "videos": False, "video_format": "mpg",
+                   "downsampled": None}
 
+
+def config_from_args(args: argparse.Namespace) -> GenerationConfig:
+    """The generation config of the command line, or of ``--config FILE`` (a recorded ``generation_config.json``).
+
+    Without ``--engine``, a run in a folder that holds a dataset resumes with the engine its configuration names
+    (pymunk where it names none: made before Box2D became the default); a new folder gets the default engine."""
+    from .pipeline import GenerationConfig, recorded_engine
+
+    if args.config is not None:
+        given = [f"--{k.replace('_', '-')}" for k, default in CONTENT_OPTIONS.items() if getattr(args, k) != default]
+        if given:
+            raise CraftError(f"--config {args.config} decides every setting of the dataset; drop {', '.join(given)}")
+        return GenerationConfig.from_recorded(read_json(args.config, "generation config"), args.config,
+                                              workers=args.workers)
+    if args.size is None:
+        raise CraftError("give --size N (the number of videos), or --config FILE to make a dataset its "
+                         "generation_config.json records")
     fields: dict[str, Any] = {"size": args.size, "seed": args.seed, "steps": args.steps,
                               "perturbations": args.perturbations, "amount": args.amount,
-                              "workers": args.workers, "videos": args.videos, "engine": args.engine,
+                              "workers": args.workers, "videos": args.videos,
+                              "engine": args.engine or recorded_engine(args.out) or DEFAULT_ENGINE,
                               "balance": not args.no_balance, "video_format": args.video_format}
     if args.downsampled:
         fields["downsampled"] = parse_ranges(args.downsampled, "--downsampled", *DOWNSAMPLED_FPS, "frame rates")
@@ -58,7 +81,14 @@ def cmd_generate(args: argparse.Namespace) -> int:
         fields["scenes"] = tuple(parse_scenes(args.scenes))
     if args.templates is not None:
         fields["templates"] = tuple(t.strip() for t in args.templates.split(",") if t.strip())
-    config = GenerationConfig.make(**fields)
+    return GenerationConfig.make(**fields)
+
+
+def cmd_generate(args: argparse.Namespace) -> int:
+    from .executors import make_executor
+    from .pipeline import generate_dataset
+
+    config = config_from_args(args)
     if args.scheduler and args.executor != "dask":
         raise CraftError("--scheduler is for --executor dask")
     if config.engine == ORIGINAL_ENGINE:
@@ -123,7 +153,11 @@ def add_commands(sub: Any) -> None:
     gen = sub.add_parser("generate", help="generate a CRAFT-format dataset (simulate, ask, filter, balance, split)",
                          description="Generate a CRAFT-format dataset into --out (docs/dataset.md). Re-running the "
                                      "same command in the same folder resumes an interrupted run.")
-    gen.add_argument("--size", type=int, required=True, help="number of videos")
+    gen.add_argument("--size", type=int, help="number of videos (no default: required unless --config)")
+    gen.add_argument("--config", metavar="generation_config.json",
+                     help="make the dataset this recorded configuration describes (another dataset's "
+                          "generation_config.json: the same bytes, resumed or anew); every content option is then "
+                          "the file's (default: none, the options given)")
     gen.add_argument("--seed", type=int, default=0, help="the seed of every random draw (default 0)")
     gen.add_argument("--out", required=True, help="output folder")
     gen.add_argument("--scenes", help="scene ids, ranges and layout files, e.g. 1,2,5-7 or 1-4,my_layouts/ramp.json "
@@ -148,9 +182,10 @@ def add_commands(sub: Any) -> None:
     gen.add_argument("--downsampled", metavar="FPS",
                      help="with --videos, also write H.264 videos at these frame rates (1-60), e.g. 5,10 "
                           "(downsampled/<fps>-fps/, as the published models read them; default: none)")
-    gen.add_argument("--engine", default="pymunk", choices=SIMULATORS,
-                     help="physics engine; original: the original CRAFT simulator (built by tools/original/build.sh), "
-                          "whose renderer also draws the videos (default: %(default)s)")
+    gen.add_argument("--engine", default=None, choices=SIMULATORS,
+                     help=engine_help(SIMULATORS, "; with original its renderer draws the videos too. Default: the "
+                                                  "engine the --out folder's generation_config.json names when "
+                                                  f"resuming (pymunk where it names none), else {DEFAULT_ENGINE}"))
     gen.add_argument("--templates", help="comma-separated template ids (default: all 67)")
     gen.add_argument("--no-balance", action="store_true",
                      help="skip answer balancing (small datasets: balancing purges every (scene, template) group "

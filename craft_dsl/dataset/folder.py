@@ -18,7 +18,14 @@ from ..files import read_json
 from ..verify.annotations import Annotations
 from ..verify.categories import category_of, family_of
 from ..verify.formats import Question, _read_json, parse_dataset, parse_minimal, parse_split
+from ..vocabulary import LEGACY_DEFAULT_ENGINE
 from .layout import DEFAULT_VIDEO_FORMAT, frame_relpath, id6, resolve, video_relpath
+
+
+def with_legacy_defaults(recorded: dict[str, Any]) -> dict[str, Any]:
+    """A recorded ``generation_config.json`` with the settings of its time filled in: a file that names no engine
+    was made with pymunk, the default before Box2D (the file itself is left as it is)."""
+    return recorded if "engine" in recorded else {**recorded, "engine": LEGACY_DEFAULT_ENGINE}
 
 #: The two splits of the published dataset: "random" (the paper's easy split) and "hard" (held-out scenes).
 SPLITS: tuple[str, ...] = ("random", "hard")
@@ -109,9 +116,10 @@ class DatasetFolder:
 
     @cached_property
     def config(self) -> dict[str, Any] | None:
-        """``generation_config.json`` (``None`` for a dataset not made by ``craft-dsl generate``)."""
+        """``generation_config.json`` with the settings of its time filled in (:func:`with_legacy_defaults`;
+        ``None`` for a dataset not made by ``craft-dsl generate``)."""
         data = self._optional_json("generation_config.json")
-        return data if isinstance(data, dict) else None
+        return with_legacy_defaults(data) if isinstance(data, dict) else None
 
     @cached_property
     def report(self) -> dict[str, Any] | None:

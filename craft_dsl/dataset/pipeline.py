@@ -37,8 +37,10 @@ from ..atomic import atomic_path
 from ..errors import CraftError
 from ..scenes import list_scenes
 from ..templates import templates
+from ..vocabulary import DEFAULT_ENGINE
 from .custom_scenes import CustomScene, builtin_id_clash, recorded_scenes_text, scene_entry
 from .executors import Executor, LocalExecutor
+from .folder import with_legacy_defaults
 from .instance import InstanceResult, InstanceTask, instance_seeds, run_instance, shard_is_complete
 from .layout import DEFAULT_VIDEO_FORMAT, VideoFormat, id6, media_complete, resolve
 from .merge import WORK_FOLDER, Merger, load_state, new_state, shard_path
@@ -91,8 +93,9 @@ class GenerationConfig(BaseModel):
     videos: bool = Field(False, description="render each video with its first and last frames")
     video_format: VideoFormat = Field(DEFAULT_VIDEO_FORMAT, description="mpg (MPEG-1, as published) or mp4 (H.264)")
     downsampled: tuple[int, ...] = Field((), description="also write H.264 videos at these frame rates (with videos)")
-    engine: Literal["pymunk", "box2d", "original"] = Field("pymunk", description="physics engine (original: the "
-                                                           "original CRAFT simulator, which also draws the videos)")
+    engine: Literal["pymunk", "box2d", "original"] = Field(
+        DEFAULT_ENGINE, description="physics engine (box2d, the default; pymunk, the default of datasets made "
+                                    "before; original: the original CRAFT simulator, which also draws the videos)")
     templates: tuple[str, ...] = Field(tuple(templates()), description="template ids to instantiate")
     balance: bool = Field(True, description="answer balancing (off: keep every question that passed the filters)")
 
@@ -172,6 +175,27 @@ class GenerationConfig(BaseModel):
         data = self.model_dump(mode="json")
         return {k: data[k] for k in CONTENT_FIELDS}
 
+    @classmethod
+    def from_recorded(cls, data: Any, source: str = "generation_config.json", **overrides: Any) -> GenerationConfig:
+        """The configuration a ``generation_config.json`` records (:meth:`recorded`), to resume or regenerate that
+        dataset; ``overrides`` sets what the file does not decide (``workers``). A file that names no engine was
+        made before Box2D became the default: pymunk (:data:`LEGACY_DEFAULT_ENGINE`)."""
+        if not isinstance(data, dict):
+            raise CraftError(f"{source}: not a generation config (a JSON object of settings expected)")
+        data = with_legacy_defaults(data)
+        version = data.get("format_version")
+        if version != FORMAT_VERSION:
+            raise CraftError(f"{source}: format_version {version!r}, and this version of craft_dsl writes "
+                             f"{FORMAT_VERSION} (docs/dataset.md, changelog of the output): generate it anew")
+        fields = {k: data[k] for k in (*CONTENT_FIELDS, *MEDIA_FIELDS) if k in data}
+        missing = [k for k in (*CONTENT_FIELDS, *MEDIA_FIELDS) if k not in data]
+        if missing:
+            raise CraftError(f"{source}: lacks {', '.join(missing)}")
+        unknown = sorted(set(data) - set(RECORDED_FIELDS))
+        if unknown:
+            raise CraftError(f"{source}: unknown settings {', '.join(unknown)}; known: {', '.join(RECORDED_FIELDS)}")
+        return cls.make(**fields, **overrides)
+
     def recorded(self) -> dict[str, Any]:
         """What ``generation_config.json`` records: the format version and every setting that changes the
         output (:data:`RECORDED_FIELDS`)."""
@@ -220,6 +244,13 @@ def _write_small(data: Any, path: Path) -> None:
         tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n", encoding="utf-8")
 
 
+def recorded_engine(folder: str | Path) -> str | None:
+    """The engine the dataset in ``folder`` was generated with (pymunk where its configuration names none), or
+    ``None`` where the folder holds no readable ``generation_config.json``."""
+    data = _load_json(Path(folder) / "generation_config.json")
+    return str(with_legacy_defaults(data)["engine"]) if isinstance(data, dict) else None
+
+
 def differing_settings(old: Any, new: dict[str, Any]) -> list[str]:
     """The recorded settings that differ, as ``name OLD here, NEW now`` (``templates`` by name only, custom scene
     layouts by id and hash)."""
@@ -244,6 +275,8 @@ def _prepare_folder(root: Path, config: GenerationConfig, force: bool, log: RunL
     new = config.recorded()
     if path.exists():
         old = _load_json(path)
+        if isinstance(old, dict):  # compared as made: a file naming no engine was made with the default of its time
+            old = with_legacy_defaults(old)
         if old != new:
             diff = differing_settings(old, new)
             if not force:
@@ -503,5 +536,6 @@ __all__ = [
     "CONTENT_FIELDS", "FORMAT_VERSION", "GenerationConfig", "HARD_SPLIT", "InstanceTask", "Progress",
     "RECORDED_FIELDS", "SPLIT_PARTS", "answer_label", "balance", "dataset_videos", "differing_settings",
     "generate_dataset", "hard_split", "id6", "instance_seeds", "instance_task", "post_process", "random_split",
-    "run_instance", "sweep_temporary_files", "template_id_of", "video_path", "work_list",
+    "recorded_engine", "run_instance", "sweep_temporary_files", "template_id_of", "video_path", "with_legacy_defaults",
+    "work_list",
 ]

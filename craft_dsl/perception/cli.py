@@ -12,7 +12,7 @@ from typing import Any
 
 from ..errors import CraftError
 from ..ranges import parse_scene
-from ..vocabulary import DEFAULT_ENGINE, ENGINES
+from ..vocabulary import DEFAULT_ENGINE, ENGINES, engine_help
 from .schema import PerceivedScene
 from .validation import Problem
 
@@ -234,7 +234,8 @@ def add_commands(sub: Any) -> None:
                         help="simulate this scene layout (1-20 or a layout file) live (default: none: give --scene "
                              "or --sim)")
     export.add_argument("--seed", type=int, default=0, help="seed of the live simulation (default 0)")
-    export.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES, help="physics engine")
+    export.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES,
+                        help=engine_help(ENGINES, " (default: %(default)s)"))
     export.add_argument("--sim", help="or a recorded simulation JSON file (no tracks: start/end states only; "
                                       "default: none)")
     export.add_argument("--fps", type=float, default=60, help="frame rate of the video and tracks (default 60)")

@@ -122,7 +122,7 @@ class PerceivedScene(_Model):
         default=None,
         description="the physics engine whose runs reproduce the video best (a reader measures it against the "
                     "frames); runs without an object are re-simulated with it. Null or absent: the executor's "
-                    "default (pymunk)")
+                    "default (box2d)")
     meta: dict[str, Any] = Field(default_factory=dict, description="free-form provenance")
 
     @model_validator(mode="wrap")

@@ -36,6 +36,7 @@ import numpy as np
 from ..errors import CounterfactualUnavailable, PerceptionError, SimulationFileError
 from ..physics.engine import PhysicsEngine, RawRun
 from ..physics.events import events_from_log
+from ..physics.flicker import add_flicker
 from ..physics.live import LiveSimulation, clean_counterfactual, get_engine
 from ..simulation import Event, ObjectState, SimObject, Simulation, Trajectory
 from ..vocabulary import DEFAULT_ENGINE, END, ENTER_BASKET, START, canonical_event_type
@@ -149,8 +150,23 @@ class SceneModel:
 
     @cached_property
     def derived_log(self) -> Any:
-        """The contact log rebuilt from the tracks and the geometry."""
-        return derive_log(self.physics.world, self.states, self.tolerance)
+        """The contact log rebuilt from the tracks and the geometry; with an engine whose circles' contacts with
+        statics flicker as the original's 128-gons' do (Box2D's default), split as that engine splits them
+        (:func:`~craft_dsl.physics.flicker.add_flicker`, a function of the run's own speeds)."""
+        world = self.physics.world
+        log = derive_log(world, self.states, self.tolerance)
+        if getattr(self.engine, "flicker", False):
+            circles = [b.uid for b in world.bodies if b.dynamic and b.geometry.circle_radius]
+            statics = [b.uid for b in world.bodies if not b.dynamic]
+            log = add_flicker(log, self.trajectory, circles, statics)
+        return log
+
+    @cached_property
+    def trajectory(self) -> Trajectory:
+        """The perceived run as a trajectory (the fitted world's bodies, row by row)."""
+        world, states = self.physics.world, self.states
+        return Trajectory(ids=tuple(b.uid for b in world.bodies), positions=states.positions, angles=states.angles,
+                          velocities=states.velocities, angular_velocities=states.angular_velocities)
 
     @cached_property
     def base_run(self) -> RawRun:
@@ -161,8 +177,7 @@ class SceneModel:
         else:
             basket = next(iter(self.basket_ids), -1)
             log = log_from_events(self.step_events, self.steps, basket, world, states, CONTACT_TOLERANCE)
-        traj = Trajectory(ids=tuple(b.uid for b in world.bodies), positions=states.positions, angles=states.angles,
-                          velocities=states.velocities, angular_velocities=states.angular_velocities)
+        traj = self.trajectory
         moved = np.zeros(states.angles.shape, dtype=bool)
         moved[1:] = np.any(states.positions[1:] != states.positions[:-1], axis=2)
         awake = (np.any(states.velocities != 0, axis=2) | moved) & np.array([b.dynamic for b in world.bodies])

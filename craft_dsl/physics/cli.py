@@ -9,7 +9,7 @@ from typing import Any
 from ..cli import DeprecatedAlias
 from ..parallel import add_workers_option
 from ..ranges import parse_scene, parse_scenes
-from ..vocabulary import ORIGINAL_ENGINE, SIMULATORS
+from ..vocabulary import DEFAULT_ENGINE, ORIGINAL_ENGINE, SIMULATORS, engine_help
 from ..world import DEFAULT_STEPS
 
 _STEPS_HELP = f"simulation steps per run, 60 per second (default {DEFAULT_STEPS} = {DEFAULT_STEPS // 60} s)"
@@ -98,9 +98,8 @@ def add_commands(subparsers: Any) -> None:
     sim.add_argument("--scene", required=True, help="scene id 1-20 or a layout file")
     sim.add_argument("--seed", type=int, default=0, help="seed of the scene's random layout")
     sim.add_argument("--steps", type=int, default=DEFAULT_STEPS, help=_STEPS_HELP)
-    sim.add_argument("--engine", default="pymunk", choices=SIMULATORS,
-                     help="physics engine; original: the original CRAFT simulator, built by tools/original/build.sh "
-                          "(default: %(default)s)")
+    sim.add_argument("--engine", default=DEFAULT_ENGINE, choices=SIMULATORS,
+                     help=engine_help(SIMULATORS, " (default: %(default)s)"))
     sim.add_argument("--video", metavar="FILE.mpg",
                      help="with --engine original: also write the original renderer's MPEG-1 video of the factual "
                           "run (default: none)")
@@ -118,7 +117,8 @@ def add_commands(subparsers: Any) -> None:
     stats.add_argument("--seeds", type=int, default=200, help="seeds 0..N-1 per scene")
     stats.add_argument("--scenes", help="ids, ranges and layout files, e.g. 1,2,5-7 (default: all 20)")
     stats.add_argument("--steps", type=int, default=DEFAULT_STEPS, help=_STEPS_HELP)
-    stats.add_argument("--engine", default="pymunk", choices=SIMULATORS, help="physics engine (default: %(default)s)")
+    stats.add_argument("--engine", default=DEFAULT_ENGINE, choices=SIMULATORS,
+                       help=engine_help(SIMULATORS, " (default: %(default)s)"))
     stats.add_argument("--markdown", action="store_true", help="print a Markdown table")
     stats.set_defaults(func=cmd_scene_stats)
 

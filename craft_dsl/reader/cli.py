@@ -16,7 +16,7 @@ import json
 import sys
 import time
 from collections import defaultdict
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -32,23 +32,25 @@ if TYPE_CHECKING:
 
 #: ``--engine``: ``auto`` and :data:`~craft_dsl.reader.reconstruct.READER_ENGINES` (spelled out here: the command line
 #: is built without importing the reconstruction; a test holds the two together).
-ENGINE_CHOICES = ("auto", "pymunk", "box2d")
+ENGINE_CHOICES = ("auto", "box2d", "pymunk")
 
 
 def read_video(path: str, questions: list[Question], decoder: str = "auto", distribution: bool = False,
-               samples: int = 64, votes: int = VOTES, steps: int = RUN_STEPS, engine: str = "auto") -> dict[str, Any]:
+               samples: int = 64, votes: int = VOTES, steps: int = RUN_STEPS, engine: str = "auto",
+               first_engine: str | None = None) -> dict[str, Any]:
     """Perceive one video and answer its questions (the unit of work of ``--workers``); ``votes``: perturbed
     replays per counterfactual question (:mod:`craft_dsl.reader.votes`); ``steps``: the run's length, against which
     the video is checked for being whole (:mod:`craft_dsl.reader.whole`); ``engine``: the physics the video was made
     with, reconstructed with alone (``"auto"``: the reader's choice, :func:`~craft_dsl.reader.reconstruct.
-    reader_engines`)."""
+    reader_engines`, trying ``first_engine`` first: the engine its dataset names)."""
     from .answer import answer_questions
     from .perceive import perceive_video
     from .whole import why_not_whole
 
     t = time.perf_counter()
     try:
-        perception = perceive_video(path, decoder, engines=None if engine == "auto" else (engine,))  # type: ignore[arg-type]
+        perception = perceive_video(path, decoder, engines=None if engine == "auto" else (engine,),  # type: ignore[arg-type]
+                                    first_engine=first_engine)
         perceived = time.perf_counter()
         answers = answer_questions(perception.scene, questions, distribution, samples, votes=votes)
     except CraftError as err:
@@ -64,6 +66,21 @@ def read_video(path: str, questions: list[Question], decoder: str = "auto", dist
         result["warning"] = f"the video is not whole: {why}"
         result["answers"] = [rescore(replace(a, warning=result["warning"])) for a in answers]
     return result
+
+
+def dataset_engine(paths: Sequence[str]) -> str | None:
+    """The engine the videos' dataset was generated with, where a ``generation_config.json`` says it: in the folder
+    of the questions file or of a video folder, or the folder above (``DATASET/videos``); the first path that has
+    one decides. ``None`` where none does."""
+    from ..dataset.pipeline import recorded_engine
+
+    for given in paths:
+        path = Path(given).resolve()
+        folder = path if path.is_dir() else path.parent
+        for candidate in (folder, folder.parent):
+            if (candidate / "generation_config.json").is_file():
+                return recorded_engine(candidate)
+    return None
 
 
 def _check_outputs(args: argparse.Namespace) -> None:
@@ -110,6 +127,7 @@ def cmd_read(args: argparse.Namespace) -> int:
         raise ReaderError(f"--engine {args.engine}: Box2D is not installed (pip install 'craft-dsl[reader]'); "
                           f"installed: {', '.join(reader_engines())}")
     questions = read_questions(args.questions)
+    first = None if args.engine != "auto" else dataset_engine([args.questions, *(args.videos or [])])
     by_video: dict[int, list[Question]] = defaultdict(list)
     for q in questions:
         by_video[q.video_index].append(q)
@@ -117,7 +135,7 @@ def cmd_read(args: argparse.Namespace) -> int:
     videos = find_videos(args.videos or [], order, args.video_map)
     header = run_header(((q.video_index, q.question_index, q.text) for q in questions), videos,
                         {"distribution": args.distribution, "samples": args.samples, "decoder": args.decoder,
-                         "votes": args.votes, "steps": args.steps, "engine": args.engine})
+                         "votes": args.votes, "steps": args.steps, "engine": args.engine, "first_engine": first})
     failed: dict[int, str] = {}
 
     def report(message: str) -> None:
@@ -131,7 +149,7 @@ def cmd_read(args: argparse.Namespace) -> int:
         if done and not args.quiet:
             report(f"resuming {journal.path}: {len(done)} of {len(order)} videos already read")
         jobs = [(v, (str(videos[v]), by_video[v], args.decoder, args.distribution, args.samples, args.votes,
-                     args.steps, args.engine)) for v in order if v not in done]
+                     args.steps, args.engine, first)) for v in order if v not in done]
 
         def finished(index: int, result: dict[str, Any]) -> None:
             if "error" in result:
@@ -247,9 +265,10 @@ def add_commands(sub: Any) -> None:
                         f"craft-dsl generate --steps N shows N): a video whose frames end earlier is not whole")
     p.add_argument("--engine", choices=ENGINE_CHOICES, default="auto",
                    help="the physics engine the videos were made with, where it is known (craft-dsl generate "
-                        "--engine): each video is reconstructed with it alone, about a tenth faster on pymunk's videos "
-                        "(default auto: pymunk, and Box2D too where pymunk's run strays; Box2D alone for the original "
-                        "renderer's look)")
+                        "--engine): each video is reconstructed with it alone, about a tenth faster "
+                        "(default auto: first the engine the dataset's generation_config.json names, beside the "
+                        "questions or the videos, else box2d; the other engine too where that run strays; Box2D "
+                        "alone for the original renderer's look)")
     p.add_argument("--decoder", choices=DECODERS, default="auto",
                    help="video decoder: PyAV in-process (auto), or imageio-ffmpeg's ffmpeg process")
     p.add_argument("--quiet", action="store_true", help="no progress bar and no summary")

@@ -42,6 +42,7 @@ from ..perception.schema import PerceivedScene
 from ..program import Program
 from ..question_parsing import match_question
 from ..verify.categories import CATEGORIES, category_of
+from ..vocabulary import DEFAULT_ENGINE
 
 if TYPE_CHECKING:
     from ..perception.world import SceneModel
@@ -89,7 +90,7 @@ def _alternative_answers(scene: PerceivedScene, programs: Sequence[Program | Non
     for name, fields in ALTERNATIVES.items():
         options: dict[str, Any] = dict(fields)
         if name == "engine":
-            other = OTHER_ENGINE.get(scene.physics or "pymunk")
+            other = OTHER_ENGINE.get(scene.physics or DEFAULT_ENGINE)
             if other is None:
                 continue
             options["engine"] = other
@@ -166,7 +167,7 @@ def confidence_inputs(scene: PerceivedScene, questions: Sequence[Question], answ
               "max_stray_px": float(meta.get("max_stray_px", 0.0)),
               "anchors": int(meta.get("anchors", 0)), "refits": int(meta.get("refits", 0)),
               "layout_rms": float(meta.get("layout_rms", 0.0)),
-              "engines_tried": len(meta.get("engines_tried", [])) or 1, "physics": scene.physics or "pymunk",
+              "engines_tried": len(meta.get("engines_tried", [])) or 1, "physics": scene.physics or DEFAULT_ENGINE,
               "least_attribute": round(_least_attribute(scene), 6), "video_fps": float(meta.get("video_fps", 60.0))}
     out = []
     for i, (q, a) in enumerate(zip(questions, answers)):

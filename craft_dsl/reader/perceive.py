@@ -96,10 +96,11 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
                     engines: Sequence[str] | None = None, fps: float | None = None,
                     frame_steps: Sequence[int] | np.ndarray | None = None,
                     rate: FrameRate | None = None, source_size: int | None = None,
-                    frame_offset: int | None = None) -> Perception:
+                    frame_offset: int | None = None, first_engine: str | None = None) -> Perception:
     """Perceive decoded frames uint8 [T, H, W, 3] (``scene``: skip the identification). ``engines``: the physics
-    engines to reconstruct the motion with (default :func:`~craft_dsl.reader.reconstruct.reader_engines`: Box2D
-    first where the statics' edges are aliased, as the original CRAFT renderer draws them); the
+    engines to reconstruct the motion with (default :func:`~craft_dsl.reader.reconstruct.reader_engines`: the
+    engine the video is known to come from first, ``first_engine``, else the default engine first; Box2D alone
+    where the statics' edges are aliased, as the original CRAFT renderer draws them); the
     reconstruction that follows the frames best is kept (:func:`~craft_dsl.reader.reconstruct.reconstruct_best`).
     ``fps`` (default 60) or ``frame_steps`` (the step each frame shows, for any other timing) say when the frames
     were taken; ``rate`` only records where ``fps`` came from. ``source_size``: the video's own frame size when the
@@ -143,8 +144,8 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
         measure_frames(obj, frames, background, which)
         refine_frames(obj, frames, background, which, shape, size)
 
-    if engines is None:  # the original CRAFT renderer's look: its physics (Box2D) first
-        engines = reader_engines(layout.aliased)
+    if engines is None:  # the engine the video comes from first (the original CRAFT renderer's look: Box2D alone)
+        engines = reader_engines(layout.aliased, first_engine)
     steps = int(rows[-1])  # the run the frames were taken from ends where the rule's last frame does
     if frame_offset is None:  # measured unless frame_steps gave every frame's step
         frame_offset = 0 if frame_steps is not None else measure_offset(
@@ -246,15 +247,16 @@ def _with_mode(dist: dict[str, float], mode: str) -> dict[str, float]:
 
 def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scene: int | None = None,
                    engines: Sequence[str] | None = None, fps: float | None = None,
-                   frame_steps: Sequence[int] | np.ndarray | None = None, frame_offset: int | None = None
-                   ) -> Perception:
+                   frame_steps: Sequence[int] | np.ndarray | None = None, frame_offset: int | None = None,
+                   first_engine: str | None = None) -> Perception:
     """Perceive a video file (see the module docstring and :func:`perceive_frames`). Frames that are not square are
     read as the square picture they hold (:mod:`craft_dsl.reader.picture`; where it was found: ``picture`` and the
     scene's ``meta["picture"]``). Its frame rate is measured
     (:func:`~craft_dsl.reader.video.frame_rate`) unless ``fps`` or ``frame_steps`` state it, and so is the step its
     first frame shows unless ``frame_offset`` or ``frame_steps`` state it. Where the frames' times show frames
     missing inside the video (:func:`~craft_dsl.reader.video.timed_steps`), each frame is read at the step its time
-    shows (``frames_missing``, and ``meta["frames_missing"]``, ``meta["first_gap_s"]``)."""
+    shows (``frames_missing``, and ``meta["frames_missing"]``, ``meta["first_gap_s"]``). ``first_engine``: the
+    engine the video is known to come from (tried first, :func:`perceive_frames`)."""
     timings: dict[str, float] = {}
     t = time.perf_counter()
     # another size is read at the reader's size; frames that are not square, as the square picture they hold
@@ -272,7 +274,7 @@ def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scen
             fps = rate.fps
     timings["decode"] = time.perf_counter() - t
     perception = perceive_frames(frames, scene, timings, engines, fps, frame_steps, rate, source_size=picture.side,
-                                 frame_offset=frame_offset)
+                                 frame_offset=frame_offset, first_engine=first_engine)
     meta: dict[str, Any] = {}
     if picture.how != "whole":  # where the picture was found in frames that are not square
         perception.picture = picture

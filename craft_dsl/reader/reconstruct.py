@@ -56,6 +56,7 @@ from ..physics.reach import interaction_groups
 from ..render.raster import SIM_FPS, Y_MAX, world_to_pixel
 from ..scenes import Choice, Uniform
 from ..simulation import Trajectory
+from ..vocabulary import ORIGINAL_ENGINE
 from ..world import GRAVITY, BodySpec, WorldSpec, bounding_radius
 from .jacobian import forward_jacobian
 from .layout_model import Attributes, LayoutModel
@@ -977,21 +978,27 @@ def reconstruct(model: LayoutModel, static_values: Mapping[str, float], objects:
 
 # -- which physics: the engine whose runs follow the video best ------------------------------------------------
 
-#: The engines the reader reconstructs with, in order of preference.
-READER_ENGINES: tuple[str, ...] = ("pymunk", "box2d")
+#: The engines the reader reconstructs with, in order of preference: the default engine's first (the engine a video
+#: of unknown origin most likely comes from), then the other.
+READER_ENGINES: tuple[str, ...] = ("box2d", "pymunk")
 
 
-def reader_engines(aliased: bool = False) -> tuple[str, ...]:
-    """:data:`READER_ENGINES` that are installed (Box2D is the ``box2d`` extra), in the order they are tried. A video
-    whose statics have aliased edges (``aliased``: the original CRAFT renderer's look, measured by
+def reader_engines(aliased: bool = False, first: str | None = None) -> tuple[str, ...]:
+    """:data:`READER_ENGINES` that are installed, in the order they are tried. ``first``: the engine the video is
+    known to come from (its dataset's ``generation_config.json``), tried first; ``"original"`` counts as the look
+    below. A video whose statics have aliased edges (``aliased``: the original CRAFT renderer's look, measured by
     :func:`~craft_dsl.reader.layout.edge_share`) is reconstructed with Box2D alone: the original simulator is Box2D,
     and where Box2D's run strays, pymunk's nearer run still answers less like the original (13 held-out original
     videos where pymunk's run was kept: 14 wrong answers of 93, 11 with Box2D alone)."""
     try:
         import Box2D  # noqa: F401
     except ImportError:
-        return READER_ENGINES[:1]
-    return ("box2d",) if aliased else READER_ENGINES
+        return ("pymunk",)
+    if aliased or first == ORIGINAL_ENGINE:
+        return ("box2d",)
+    if first in READER_ENGINES:
+        return (first, *(e for e in READER_ENGINES if e != first))
+    return READER_ENGINES
 
 
 def _strays_no_sooner(earlier: FirstRun) -> int:

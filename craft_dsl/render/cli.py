@@ -9,7 +9,7 @@ from typing import Any
 
 from ..errors import CraftError
 from ..ranges import parse_scene
-from ..vocabulary import DEFAULT_ENGINE, ENGINES
+from ..vocabulary import DEFAULT_ENGINE, ENGINES, engine_help
 from ..world import DEFAULT_STEPS
 
 
@@ -43,6 +43,7 @@ def add_commands(sub: Any) -> None:
                         help="write only the frame after this many steps, as PNG (default: none, the video)")
     render.add_argument("--fps", type=float, default=60, help="frames per second, at most 60 (default 60)")
     render.add_argument("--steps", type=int, default=DEFAULT_STEPS, help="simulation steps (default 600 = 10 s)")
-    render.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES, help="physics engine")
+    render.add_argument("--engine", default=DEFAULT_ENGINE, choices=ENGINES,
+                        help=engine_help(ENGINES, " (default: %(default)s)"))
     render.add_argument("--quiet", action="store_true", help="no progress bar")
     render.set_defaults(func=cmd_render)

@@ -28,7 +28,7 @@ import networkx as nx
 from ..dataset.folder import DatasetFolder
 from ..errors import CraftError
 from ..simulation import Event, Simulation
-from ..vocabulary import DEFAULT_ENGINE
+from ..vocabulary import LEGACY_DEFAULT_ENGINE
 from ..world import DEFAULT_STEPS
 
 #: Short event labels drawn in the graph.
@@ -233,8 +233,8 @@ class ViewerData:
         seed = int(stats["simulation_seed"])
         layout = recorded_layout(config, int(stats["scene"]))
         scene: Any = int(stats["scene"]) if layout is None else sample_world(layout, seed)
-        sim = simulate(scene, seed=seed,
-                       steps=int(config.get("steps", DEFAULT_STEPS)), engine=str(config.get("engine", DEFAULT_ENGINE)))
+        sim = simulate(scene, seed=seed, steps=int(config.get("steps", DEFAULT_STEPS)),
+                       engine=str(config.get("engine", LEGACY_DEFAULT_ENGINE)))
         recorded = self.simulation(video_index)
         if sorted(map(_event_key, sim.events)) != sorted(map(_event_key, recorded.events)):
             raise ViewerError(f"video {video_index}: the re-simulation's events differ from the recorded ones "
