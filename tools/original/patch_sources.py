@@ -9,7 +9,8 @@ and changes that spot only. Running it twice is harmless: an edit already made i
 None of the edits touches physics or events. One lets a caller that records no video skip drawing (the environment
 variable CRAFT_ORIGINAL_NO_DRAW), which saves most of a run's time and changes nothing it writes. One changes what is
 drawn, to match the simulator's own live path: a scene loaded from JSON draws its static balls, as a generated scene
-(the path that drew the published videos) does.
+(the path that drew the published videos) does. One lets a caller seed a freshly generated scene (the environment
+variable CRAFT_ORIGINAL_SEED): unset, the clock and the hardware seed it as before.
 """
 
 from __future__ import annotations
@@ -147,6 +148,80 @@ def draw_static_balls_from_json(root: Path) -> str:
     return "ObjectState.h: static balls get the platform texture, as in a generated scene"
 
 
+SEED_VARIABLE = "CRAFT_ORIGINAL_SEED"
+#: Helpers put above the first hardware-seeded draw in Simulation.h. Unset, CraftHardwareSeed returns rd() as the
+#: original did; set, it returns the next number of one mt19937 seeded from the variable, so each draw still gets
+#: its own fresh mt19937 (as in the original) but from reproducible seeds. srand() and that generator get two seeds
+#: mixed from the variable by std::seed_seq: glibc's srand() turns consecutive seeds into related streams.
+SEED_HELPERS = (f"// craft_dsl: ${SEED_VARIABLE} (an unsigned 32-bit decimal) replaces the clock and hardware "
+                "randomness\n") + f"""inline bool CraftSeedGiven(unsigned int* seed)
+{{
+\tstatic const char* text = std::getenv("{SEED_VARIABLE}");
+\tif (text == nullptr) return false;
+\tchar* end = nullptr;
+\tunsigned long long value = std::strtoull(text, &end, 10);
+\tif (text[0] < '0' || text[0] > '9' || *end != '\\0' || value > 0xFFFFFFFFull) {{
+\t\tstd::cerr << "{SEED_VARIABLE} must be an unsigned 32-bit decimal integer, got '" << text << "'" << std::endl;
+\t\tstd::exit(2);
+\t}}
+\t*seed = (unsigned int)value;
+\treturn true;
+}}
+
+inline unsigned int CraftDerivedSeed(unsigned int seed, unsigned int purpose)
+{{
+\tstd::seed_seq mix{{seed, purpose}};
+\tunsigned int out = 0;
+\tmix.generate(&out, &out + 1);
+\treturn out;
+}}
+
+inline unsigned int CraftHardwareSeed(std::random_device& rd)
+{{
+\tunsigned int seed = 0;
+\tif (!CraftSeedGiven(&seed)) return rd();
+\tstatic std::mt19937 stream(CraftDerivedSeed(seed, 2));
+\treturn stream();
+}}
+
+"""
+HARDWARE_DRAWS = ("inline float32 RandomFloatFromHardware(", "inline int RandomInteger(",
+                  "inline float32 RandomFloatWithinRanges(")
+HARDWARE_SEEDING = "std::mt19937 eng(rd());"
+
+
+def seed_on_request(root: Path) -> str:
+    # A fresh scene draws its positions, angles and speeds from std::random_device (a new mt19937 seeded by rd() for
+    # each number) and its shapes, sizes and colours from rand() seeded with the clock: no run can be repeated.
+    # With CRAFT_ORIGINAL_SEED set, the rd() seeds come from one mt19937 and srand() gets a seed, both mixed from it.
+    path = root / "Testbed/Framework/Simulation.h"
+    lines = _read(path)
+    done = any("CraftHardwareSeed" in line for line in lines)
+    if not done:
+        for name in HARDWARE_DRAWS:
+            at = _only_line(lines, name, path)
+            seeding = [i for i in range(at, min(at + 8, len(lines))) if lines[i].strip().startswith(HARDWARE_SEEDING)]
+            if len(seeding) != 1:
+                raise PatchError(f"Simulation.h: expected one {HARDWARE_SEEDING!r} in {name.strip()}...")
+            lines[seeding[0]] = lines[seeding[0]].replace("eng(rd())", "eng(CraftHardwareSeed(rd))", 1)
+        first = _only_line(lines, HARDWARE_DRAWS[0], path)
+        lines[first:first] = SEED_HELPERS.splitlines(keepends=True)
+        if not any(line.strip() in ("#include <cstdlib>", "#include <stdlib.h>") for line in lines):
+            lines.insert(0, "#include <cstdlib>\n")
+        _write(path, lines)
+    path = root / "Testbed/Framework/SimulationMain.cpp"
+    lines = _read(path)
+    if any("CraftSeedGiven" in line for line in lines):
+        return "Simulation.h, SimulationMain.cpp: " + ("already " if done else "") + f"seeded by {SEED_VARIABLE}"
+    at = _only_line(lines, "srand(time(NULL) + 42);", path)
+    indent = lines[at][: len(lines[at]) - len(lines[at].lstrip())]
+    lines[at:at + 1] = [indent + f"unsigned int craftSeed = 0;  // craft_dsl: ${SEED_VARIABLE} replaces the clock\n",
+                        indent + "if (CraftSeedGiven(&craftSeed)) srand(CraftDerivedSeed(craftSeed, 1)); else "
+                        + lines[at].lstrip()]
+    _write(path, lines)
+    return f"Simulation.h, SimulationMain.cpp: fresh scenes seeded by {SEED_VARIABLE} when it is set"
+
+
 def replace_video_writer(root: Path, replacement: Path) -> str:
     # The original header uses the FFmpeg 4 encode API (avcodec_encode_video2), gone in FFmpeg 5.
     path = root / "Testbed/Framework/VideoWriter.h"
@@ -167,7 +242,7 @@ def main(argv: list[str]) -> int:
     root, replacement = Path(argv[1]), Path(argv[2])
     try:
         for edit in (include_cstring, load_glad_off_apple, full_size_window_off_apple, skip_drawing_on_request,
-                     draw_static_balls_from_json):
+                     draw_static_balls_from_json, seed_on_request):
             print(edit(root))
         print(replace_video_writer(root, replacement))
     except PatchError as exc:
