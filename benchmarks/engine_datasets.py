@@ -39,23 +39,42 @@ def filters_table(folders: dict[str, Path]) -> str:
     return "\n".join(rows)
 
 
+def _answer_row(records: list[dict[str, Any]]) -> str:
+    """Boolean True share, the Count answers' distribution, and how many Color and Shape answers."""
+    by_type: dict[str, Counter[str]] = {}
+    for r in records:
+        by_type.setdefault(r["answer_type"], Counter())[str(r["answer"])] += 1
+    boolean = by_type.get("Boolean", Counter())
+    count = by_type.get("Count", Counter())
+    n_count = sum(count.values())
+    counts = [count.get(str(k), 0) for k in range(4)]
+    counts.append(n_count - sum(counts))
+    share = " / ".join(f"{100 * c / n_count:.0f}%" for c in counts) if n_count else "-"
+    n_bool = sum(boolean.values())
+    true = f"{100 * boolean.get('True', 0) / n_bool:.0f}% of {n_bool}" if n_bool else "-"
+    colors, shapes = (sum(by_type.get(t, Counter()).values()) for t in ("Color", "Shape"))
+    return f"{len(records)} | {true} | {share} | {colors} | {shapes}"
+
+
 def answers_table(folders: dict[str, Path]) -> str:
     rows = ["| engine | questions | Boolean: True | Count: 0 / 1 / 2 / 3 / 4+ | Color answers | Shape answers |",
             "|---|---|---|---|---|---|"]
     for name, root in folders.items():
-        records = json.loads((root / "dataset_minimal.json").read_text())
-        by_type: dict[str, Counter[str]] = {}
-        for r in records:
-            by_type.setdefault(r["answer_type"], Counter())[str(r["answer"])] += 1
-        boolean = by_type.get("Boolean", Counter())
-        count = by_type.get("Count", Counter())
-        n_count = sum(count.values()) or 1
-        counts = [count.get(str(k), 0) for k in range(4)]
-        counts.append(n_count - sum(counts))
-        share = " / ".join(f"{100 * c / n_count:.0f}%" for c in counts)
-        true = 100 * boolean.get("True", 0) / (sum(boolean.values()) or 1)
-        colors, shapes = (sum(by_type.get(t, Counter()).values()) for t in ("Color", "Shape"))
-        rows.append(f"| {name} | {len(records)} | {true:.0f}% | {share} | {colors} | {shapes} |")
+        rows.append(f"| {name} | {_answer_row(json.loads((root / 'dataset_minimal.json').read_text()))} |")
+    return "\n".join(rows)
+
+
+def family_answers_table(folders: dict[str, Path]) -> str:
+    """The answers of each template family (C: cause/enable/prevent, CF, D) per engine."""
+    from craft_dsl.verify.categories import FAMILIES, family_of
+
+    rows = ["| family | engine | questions | Boolean: True | Count: 0 / 1 / 2 / 3 / 4+ | Color answers | "
+            "Shape answers |", "|---|---|---|---|---|---|---|"]
+    records = {name: json.loads((root / "dataset_minimal.json").read_text()) for name, root in folders.items()}
+    for family in FAMILIES:
+        for name, rs in records.items():
+            mine = [r for r in rs if family_of(r["template_id"]) == family]
+            rows.append(f"| {family} | {name} | {_answer_row(mine)} |")
     return "\n".join(rows)
 
 
@@ -85,6 +104,8 @@ def main() -> None:
     print(filters_table(folders))
     print("\nAnswers of the final questions:\n")
     print(answers_table(folders))
+    print("\nAnswers of the final questions per template family:\n")
+    print(family_answers_table(folders))
     print("\nHeuristic baselines, expected test accuracy (%):\n")
     print(baselines_table(folders))
 
