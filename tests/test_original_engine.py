@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from original_helpers import needs_binary
 
 from craft_dsl import parse
 from craft_dsl.analysis.engines import compare_engines
@@ -25,20 +26,6 @@ from craft_dsl.physics import simulate
 from craft_dsl.physics.original import OriginalSimulation, OriginalSimulator, OriginalSimulatorError
 from craft_dsl.scenes import sample_world
 from craft_dsl.world import make_dynamic
-
-
-def _built() -> bool:
-    try:
-        orig.find_binary()
-    except OriginalSimulatorError:
-        return False
-    return True
-
-
-needs_binary = pytest.mark.skipif(
-    not _built(), reason="the original simulator is not built: run `bash tools/original/build.sh` (needs "
-                         "../shared/original-craft/ and Debian packages; .ci/run does it)")
-
 
 # -- the scene file (no binary needed) ------------------------------------------------------------------------
 

@@ -15,6 +15,7 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
+from original_helpers import needs_binary
 from scipy import stats
 
 from craft_dsl.physics import original as orig
@@ -24,19 +25,6 @@ from craft_dsl.physics.original_sampler import sample_original, sample_original_
 from craft_dsl.scenes import sample_world
 from craft_dsl.vocabulary import COLORS, SHAPES, SIZES
 from craft_dsl.world import WorldSpec
-
-
-def _built() -> bool:
-    try:
-        orig.find_binary()
-    except OriginalSimulatorError:
-        return False
-    return True
-
-
-needs_binary = pytest.mark.skipif(
-    not _built(), reason="the original simulator is not built: run `bash tools/original/build.sh` (needs "
-                         "../shared/original-craft/ and Debian packages; .ci/run does it)")
 
 
 def _records(world: WorldSpec) -> list[dict[str, object]]:

@@ -301,6 +301,45 @@ def scene_file(world: WorldSpec) -> dict[str, Any]:
 # -- one run ---------------------------------------------------------------------------------------------
 
 
+def run_binary(binary: Path, controller: Path, workdir: Path, env: dict[str, str], timeout: float, label: str,
+               out_json: Path) -> dict[str, Any]:
+    """Run the simulator on ``controller`` (in its own process group, ended with this process) and return the
+    JSON object it wrote to ``out_json``. Not starting, running past ``timeout`` seconds, a non-zero exit and a
+    missing or malformed output are each an :class:`OriginalSimulatorError` naming ``label``."""
+    try:
+        proc = subprocess.Popen([str(binary), str(controller)], cwd=workdir, env=env, stdin=subprocess.DEVNULL,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True,
+                                preexec_fn=_die_with_parent)
+    except OSError as err:
+        raise OriginalSimulatorError(f"could not start the original simulator {binary}: {err}") from None
+    try:
+        _, stderr = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        _kill_group(proc)
+        raise OriginalSimulatorError(f"the original simulator ran past its time limit of {timeout:g} s on {label} "
+                                     f"(set ${ENV_TIMEOUT} to change it)") from None
+    except BaseException:  # interrupted: leave nothing running
+        _kill_group(proc)
+        raise
+    if proc.returncode != 0:
+        tail = stderr.decode(errors="replace").strip().splitlines()[-3:]
+        code = proc.returncode
+        cause = f"killed by signal {-code}" if code < 0 else f"exit code {code}"
+        raise OriginalSimulatorError(f"the original simulator failed on {label} ({cause})"
+                                     + (": " + " | ".join(tail) if tail else ""))
+    try:
+        output = json.loads(out_json.read_text())
+    except FileNotFoundError:
+        raise OriginalSimulatorError(f"the original simulator wrote no output file on {label}") from None
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise OriginalSimulatorError(f"the original simulator wrote a malformed output file on {label}: "
+                                     f"{err}") from None
+    if not isinstance(output, dict):
+        raise OriginalSimulatorError(f"the original simulator wrote a malformed output file on {label}: "
+                                     "not a JSON object")
+    return output
+
+
 @dataclass(frozen=True)
 class OriginalRun:
     """What one run of the binary wrote: its output JSON (parsed) and the video, if one was asked for."""
@@ -358,38 +397,9 @@ class OriginalSimulator:
             if video is None:
                 env[NO_DRAW] = "1"  # nothing is recorded, so nothing needs drawing (the build's own edit)
             start = time.perf_counter()
-            try:
-                proc = subprocess.Popen([str(self.binary), str(folder / "controller.json")], cwd=self.workdir, env=env,
-                                        stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                        start_new_session=True, preexec_fn=_die_with_parent)
-            except OSError as err:
-                raise OriginalSimulatorError(f"could not start the original simulator {self.binary}: {err}") from None
-            try:
-                _, stderr = proc.communicate(timeout=self.timeout)
-            except subprocess.TimeoutExpired:
-                _kill_group(proc)
-                raise OriginalSimulatorError(f"the original simulator ran past its time limit of {self.timeout:g} s "
-                                             f"on {label} (set ${ENV_TIMEOUT} to change it)") from None
-            except BaseException:  # interrupted: leave nothing running
-                _kill_group(proc)
-                raise
+            output = run_binary(self.binary, folder / "controller.json", self.workdir, env, self.timeout, label,
+                                out_json)
             seconds = time.perf_counter() - start
-            if proc.returncode != 0:
-                tail = stderr.decode(errors="replace").strip().splitlines()[-3:]
-                code = proc.returncode
-                cause = f"killed by signal {-code}" if code < 0 else f"exit code {code}"
-                raise OriginalSimulatorError(f"the original simulator failed on {label} ({cause})"
-                                             + (": " + " | ".join(tail) if tail else ""))
-            try:
-                output = json.loads(out_json.read_text())
-            except FileNotFoundError:
-                raise OriginalSimulatorError(f"the original simulator wrote no output file on {label}") from None
-            except (UnicodeDecodeError, json.JSONDecodeError) as err:
-                raise OriginalSimulatorError(f"the original simulator wrote a malformed output file on {label}: "
-                                             f"{err}") from None
-            if not isinstance(output, dict):
-                raise OriginalSimulatorError(f"the original simulator wrote a malformed output file on {label}: "
-                                             "not a JSON object")
             kept: Path | None = None
             if video is not None and out_video is not None:
                 if not out_video.is_file() or out_video.stat().st_size == 0:

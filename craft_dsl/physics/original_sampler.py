@@ -23,7 +23,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import subprocess
 import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -43,11 +42,10 @@ from .original import (
     NO_DRAW,
     VIDEO_SIZE,
     OriginalSimulatorError,
-    _die_with_parent,
-    _kill_group,
     find_binary,
     original_polygon,
     polygon_mass,
+    run_binary,
 )
 
 __all__ = [
@@ -121,37 +119,7 @@ def run_fresh_scene(scene_id: int, seed: int | None, *, binary: Path | None = No
         env.pop(ENV_SEED, None)
         if seed is not None:
             env[ENV_SEED] = str(seed)
-        try:
-            proc = subprocess.Popen([str(exe), str(folder / "controller.json")], cwd=exe.parent, env=env,
-                                    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                    start_new_session=True, preexec_fn=_die_with_parent)
-        except OSError as err:
-            raise OriginalSimulatorError(f"could not start the original simulator {exe}: {err}") from None
-        try:
-            _, stderr = proc.communicate(timeout=limit)
-        except subprocess.TimeoutExpired:
-            _kill_group(proc)
-            raise OriginalSimulatorError(f"the original simulator ran past its time limit of {limit:g} s on "
-                                         f"{label} (set ${ENV_TIMEOUT} to change it)") from None
-        except BaseException:  # interrupted: leave nothing running
-            _kill_group(proc)
-            raise
-        if proc.returncode != 0:
-            tail = stderr.decode(errors="replace").strip().splitlines()[-3:]
-            code = proc.returncode
-            cause = f"killed by signal {-code}" if code < 0 else f"exit code {code}"
-            raise OriginalSimulatorError(f"the original simulator failed on {label} ({cause})"
-                                         + (": " + " | ".join(tail) if tail else ""))
-        try:
-            output = json.loads(out_json.read_text())
-        except FileNotFoundError:
-            raise OriginalSimulatorError(f"the original simulator wrote no output file on {label}") from None
-        except (UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise OriginalSimulatorError(f"the original simulator wrote a malformed output file on {label}: "
-                                         f"{err}") from None
-    if not isinstance(output, dict):
-        raise OriginalSimulatorError(f"the original simulator wrote a malformed output file on {label}: "
-                                     "not a JSON object")
+        output = run_binary(exe, folder / "controller.json", exe.parent, env, limit, label, out_json)
     return output
 
 
