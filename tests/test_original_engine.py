@@ -10,13 +10,12 @@ from __future__ import annotations
 import json
 import math
 import os
-import stat
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
-from original_helpers import needs_binary
+from original_helpers import needs_binary, stand_in
 
 from craft_dsl import parse
 from craft_dsl.analysis.engines import compare_engines
@@ -93,16 +92,6 @@ def test_an_unbuilt_simulator_is_one_clear_error(monkeypatch: pytest.MonkeyPatch
     assert "not built" in capsys.readouterr().err
 
 
-def _stand_in(tmp_path: Path, body: str) -> Path:
-    """A fake simulator: a shell script that gets the controller file as $1."""
-    folder = tmp_path / "fake" / "run"
-    folder.mkdir(parents=True, exist_ok=True)
-    script = folder / "Testbed"
-    script.write_text("#!/bin/sh\n" + body + "\n")
-    script.chmod(script.stat().st_mode | stat.S_IXUSR)
-    return script
-
-
 def _controller_field(field: str) -> str:
     return f"$({sys.executable} -c \"import json,sys; print(json.load(open(sys.argv[1]))['{field}'])\" \"$1\")"
 
@@ -120,7 +109,7 @@ def _controller_field(field: str) -> str:
 def test_every_failure_of_the_binary_is_one_error_naming_the_cause(body: str, message: str, tmp_path: Path,
                                                                      monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(orig.ENV_DISPLAY, ":424242")  # the stand-ins draw nothing
-    simulator = OriginalSimulator(_stand_in(tmp_path, body), timeout=1)
+    simulator = OriginalSimulator(stand_in(tmp_path, body), timeout=1)
     with pytest.raises(OriginalSimulatorError, match=message):
         simulator.simulation(sample_world(1, 0), 60)
 

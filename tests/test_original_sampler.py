@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import json
 import os
-import stat
 import subprocess
 from collections import Counter
 from pathlib import Path
 
 import pytest
-from original_helpers import needs_binary
+from original_helpers import needs_binary, stand_in
 from scipy import stats
 
 from craft_dsl.physics import original as orig
@@ -79,16 +78,6 @@ def test_bad_scene_ids_and_seeds_are_refused_before_any_run(scene: int, seed: in
         sample_original_many([(1, 1), (scene, seed)], binary=Path("/nonexistent/Testbed"))
 
 
-def _stand_in(tmp_path: Path, body: str) -> Path:
-    """A fake simulator: a shell script that gets the controller file as $1."""
-    folder = tmp_path / "fake" / "run"
-    folder.mkdir(parents=True, exist_ok=True)
-    script = folder / "Testbed"
-    script.write_text("#!/bin/sh\n" + body + "\n")
-    script.chmod(script.stat().st_mode | stat.S_IXUSR)
-    return script
-
-
 _OUT = "$(sed -n 's/.*\"outputJSONPath\": \"\\([^\"]*\\)\".*/\\1/p' \"$1\")"
 
 
@@ -105,7 +94,7 @@ def test_every_failure_of_the_binary_is_one_error(body: str, message: str, tmp_p
                                                   monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(orig.ENV_DISPLAY, ":424242")  # the stand-ins draw nothing
     with pytest.raises(OriginalSimulatorError, match=message):
-        sample_original(4, 9, binary=_stand_in(tmp_path, body), timeout=1)
+        sample_original(4, 9, binary=stand_in(tmp_path, body), timeout=1)
 
 
 def test_the_stand_in_gets_a_fresh_scene_controller_and_the_seed(tmp_path: Path,
@@ -114,7 +103,7 @@ def test_the_stand_in_gets_a_fresh_scene_controller_and_the_seed(tmp_path: Path,
     monkeypatch.setenv(osamp.ENV_SEED, "123")  # the caller's own value never leaks into an unseeded run
     keep = tmp_path / "seen"
     body = f"cp \"$1\" {keep}.json; echo \"${{{osamp.ENV_SEED}-unset}} $CRAFT_ORIGINAL_NO_DRAW\" > {keep}.env; exit 5"
-    binary = _stand_in(tmp_path, body)
+    binary = stand_in(tmp_path, body)
     for seed, expected in ((77, "77 1"), (None, "unset 1")):
         with pytest.raises(OriginalSimulatorError):
             sample_original(6, seed, binary=binary)
