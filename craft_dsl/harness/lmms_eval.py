@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
@@ -209,8 +209,11 @@ def load_task_config(folder: str | os.PathLike[str]) -> tuple[Path, VisualSettin
 # -- the export --------------------------------------------------------------------------------------------------
 
 
-def _rows(folder: Any, split: str) -> list[dict[str, Any]]:
-    keys = folder.split(split)["test"]
+def question_rows(folder: Any, split: str, part: str,
+                  extra: Callable[[tuple[int, int], str], dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per question of ``part`` of ``split``, in ``dataset_minimal.json`` order: its keys, text, answer,
+    answer kind and template, then ``extra(key, template_id)``'s fields, then its video's path in the folder."""
+    keys = folder.split(split)[part]
     out = []
     for rec in folder.records:
         key = (int(rec["video_index"]), int(rec["question_index"]))
@@ -219,9 +222,13 @@ def _rows(folder: Any, split: str) -> list[dict[str, Any]]:
         tid = str(rec["template_id"])
         out.append({"video_index": key[0], "question_index": key[1], "question": str(rec.get("question", "")),
                     "answer": str(rec["answer"]), "answer_kind": kind_of_template(tid), "template_id": tid,
-                    "category": category_of(tid), "family": family_of(tid),
-                    "video": folder.video_relpath(rec).removeprefix("./")})
+                    **extra(key, tid), "video": folder.video_relpath(rec).removeprefix("./")})
     return out
+
+
+def _rows(folder: Any, split: str) -> list[dict[str, Any]]:
+    return question_rows(folder, split, "test", lambda _key, tid: {"category": category_of(tid),
+                                                                   "family": family_of(tid)})
 
 
 def _groups_present(rows: Sequence[Mapping[str, Any]]) -> list[str]:

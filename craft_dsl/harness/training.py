@@ -15,8 +15,7 @@ import os
 from typing import Any
 
 from ..errors import CraftError
-from .answers import kind_of_template
-from .lmms_eval import doc_to_text
+from .lmms_eval import doc_to_text, question_rows
 
 #: The instruction of ``task="program"`` prompts; ``{question}`` is replaced by the question.
 PROGRAM_PROMPT = ("Write the CRAFT DSL program that answers this question about a 2D physics video, e.g. "
@@ -36,24 +35,15 @@ def training_rows(dataset: str | os.PathLike[str], split: str = "random", part: 
     if part not in PARTS:
         raise CraftError(f"unknown part {part!r}; allowed: {', '.join(PARTS)}")
     folder = DatasetFolder(dataset)
-    keys = folder.split(split)[part]
-    programs = folder.programs
-    rows = []
-    for rec in folder.records:
-        key = (int(rec["video_index"]), int(rec["question_index"]))
-        if key not in keys:
-            continue
-        tid = str(rec["template_id"])
-        nodes = programs.get(key)
-        row: dict[str, Any] = {
-            "video_index": key[0], "question_index": key[1], "question": str(rec.get("question", "")),
-            "answer": str(rec["answer"]), "answer_kind": kind_of_template(tid), "template_id": tid,
-            "program": str(Program.from_nodes(nodes)) if nodes else "",
-            "video": folder.video_relpath(rec).removeprefix("./"),
-        }
+
+    def program(key: tuple[int, int], _tid: str) -> dict[str, Any]:
+        nodes = folder.programs.get(key)
+        return {"program": str(Program.from_nodes(nodes)) if nodes else ""}
+
+    rows = question_rows(folder, split, part, program)
+    for row in rows:
         text = doc_to_text(row) if task == "answer" else PROGRAM_PROMPT.format(question=row["question"])
         row["prompt"] = [{"role": "user", "content": text}] if chat else text
-        rows.append(row)
     return rows
 
 
