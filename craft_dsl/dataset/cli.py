@@ -49,9 +49,8 @@ class _Bars:
 
 
 #: The options that decide what a dataset holds: with ``--config`` the file decides them, so none may be given.
-CONTENT_OPTIONS = {"size": None, "seed": 0, "scenes": None, "steps": 600, "perturbations": 3, "amount": 0.02,
-                   "engine": None, "templates": None, "no_balance": False, "videos": False, "video_format": "mpg",
-                   "downsampled": None}
+CONTENT_OPTIONS = ("size", "seed", "scenes", "steps", "perturbations", "amount", "engine", "templates", "no_balance",
+                   "videos", "video_format", "downsampled")
 
 
 def config_from_args(args: argparse.Namespace) -> GenerationConfig:
@@ -62,7 +61,7 @@ def config_from_args(args: argparse.Namespace) -> GenerationConfig:
     from .pipeline import GenerationConfig, recorded_engine
 
     if args.config is not None:
-        given = [f"--{k.replace('_', '-')}" for k, default in CONTENT_OPTIONS.items() if getattr(args, k) != default]
+        given = [f"--{k.replace('_', '-')}" for k in CONTENT_OPTIONS if getattr(args, k) != args.defaults[k]]
         if given:
             raise CraftError(f"--config {args.config} decides every setting of the dataset; drop {', '.join(given)}")
         return GenerationConfig.from_recorded(read_json(args.config, "generation config"), args.config,
@@ -192,4 +191,4 @@ def add_commands(sub: Any) -> None:
                           "with a single answer)")
     gen.add_argument("--quiet", action="store_true",
                      help="no progress display and no summary (the log file generation.log is still written)")
-    gen.set_defaults(func=cmd_generate)
+    gen.set_defaults(func=cmd_generate, defaults={k: gen.get_default(k) for k in CONTENT_OPTIONS})
