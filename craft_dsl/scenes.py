@@ -18,7 +18,7 @@ import warnings
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, TypeGuard, Union
+from typing import Annotated, Any, Final, Literal, TypeGuard, Union
 
 import numpy as np
 from pydantic import (
@@ -28,8 +28,10 @@ from pydantic import (
     PlainSerializer,
     PlainValidator,
     PrivateAttr,
+    SerializerFunctionWrapHandler,
     ValidationError,
     field_validator,
+    model_serializer,
     model_validator,
 )
 
@@ -39,6 +41,8 @@ from .vocabulary import COLORS, SHAPES, SIZES
 from .world import BodySpec, WorldSpec, assign_uids, make_dynamic, make_static
 
 __all__ = [
+    "LAYOUT_REVISION",
+    "LAYOUT_REVISIONS",
     "RANDOM",
     "STATIC_ELEMENT_SHAPES",
     "BasketSpec",
@@ -337,17 +341,27 @@ class StaticElement(_Model):
 
 
 class DynamicSlot(_Model):
-    """One dynamic object. Each of shape, size and colour is fixed or ``"random"``; on a duplicate
-    (shape, colour, size) triple the random parts are redrawn and the fixed parts kept. Slots sharing a
-    ``color_group`` get pairwise distinct colours."""
+    """One dynamic object. Each of shape, size and colour is fixed or ``"random"``. On a (shape, colour, size)
+    triple already used in the scene, ``on_duplicate`` decides: ``"redraw"`` (the default) redraws the random parts
+    and keeps the fixed ones; ``"drop"`` leaves the object out, as the original does for some slots. Slots sharing
+    a ``color_group`` get pairwise distinct colours."""
 
     shape: str = RANDOM
     size: str = RANDOM
     color: str = RANDOM
     color_group: str | None = None
+    on_duplicate: Literal["redraw", "drop"] = "redraw"
     position: Vec
     velocity: Vec = (Const(0.0), Const(0.0))
     note: str = ""
+
+    @model_serializer(mode="wrap")
+    def _omit_default_on_duplicate(self, handler: SerializerFunctionWrapHandler) -> dict[str, Any]:
+        # the default is left out, so a layout that does not use the field keeps its canonical JSON (and hash)
+        data: dict[str, Any] = handler(self)
+        if data.get("on_duplicate") == "redraw":
+            del data["on_duplicate"]
+        return data
 
     @field_validator("shape")
     @classmethod
@@ -516,17 +530,38 @@ def layout_from_data(data: object, source: str = "scene layout") -> SceneLayout:
     return _parse_layout(data, source, None)
 
 
+#: Revisions of the built-in layouts. 1: every dataset made before the original's own sampler was compared with
+#: ours. 2 follows the original where that comparison found a difference: scene 15's lower-left platform at
+#: x = -8 - 16 cos 30° exactly (revision 1 rounded it to -21.856), and scene 7's 4th object left out on a
+#: duplicate triple (revision 1 redrew its colour). ``scenes/revision_1/`` holds revision 1 of the files that
+#: changed.
+LAYOUT_REVISIONS: Final = (1, 2)
+#: The revision new datasets and every function without a ``revision`` argument use.
+LAYOUT_REVISION: Final = 2
+
+
+def _check_revision(revision: int) -> int:
+    if isinstance(revision, bool) or revision not in LAYOUT_REVISIONS:
+        raise SceneFileError(f"layout revision {revision!r} does not exist; revisions: "
+                             f"{', '.join(map(str, LAYOUT_REVISIONS))}")
+    return revision
+
+
 @functools.lru_cache(maxsize=64)
-def _load_builtin(scene_id: int, folder: Path) -> SceneLayout:
-    path = folder / f"scene_{scene_id:02d}.json"
+def _load_builtin(scene_id: int, folder: Path, revision: int = LAYOUT_REVISION) -> SceneLayout:
+    name = f"scene_{scene_id:02d}.json"
+    older = folder / f"revision_{revision}" / name
+    path = older if revision != LAYOUT_REVISION and older.is_file() else folder / name
     layout = load_layout_file(path)
     if layout.scene != scene_id:
         raise SceneFileError(f"{path}: scene: the file says {layout.scene}, its name says {scene_id}")
     return layout
 
 
-def load_scene(scene: int | str | Path) -> SceneLayout:
-    """Load a layout: an int is a built-in scene id (see :func:`list_scenes`), a str or Path a file."""
+def load_scene(scene: int | str | Path, revision: int = LAYOUT_REVISION) -> SceneLayout:
+    """Load a layout: an int is a built-in scene id (see :func:`list_scenes`), in ``revision`` of the built-in
+    layouts (:data:`LAYOUT_REVISIONS`), a str or Path a file."""
+    _check_revision(revision)
     if isinstance(scene, bool):
         raise SceneFileError(f"scene must be an id or a path, got {scene!r}")
     if isinstance(scene, (int, np.integer)):
@@ -534,7 +569,7 @@ def load_scene(scene: int | str | Path) -> SceneLayout:
         if int(scene) not in ids:
             raise SceneFileError(f"no built-in scene {int(scene)}; available: "
                                  f"{', '.join(map(str, ids)) or '(none)'} (in {builtin_scene_dir()})")
-        return _load_builtin(int(scene), builtin_scene_dir())
+        return _load_builtin(int(scene), builtin_scene_dir(), revision)
     return load_layout_file(scene)
 
 
@@ -584,17 +619,19 @@ class _Sampler:
         return (self.value(v[0], f"{path}[0]"), self.value(v[1], f"{path}[1]"))
 
     def attributes(self, slot: DynamicSlot, path: str, used: set[tuple[str, str, str]],
-                   group_colors: dict[str, set[str]]) -> tuple[str, str, str]:
+                   group_colors: dict[str, set[str]]) -> tuple[str, str, str] | None:
         """Draw (shape, colour, size): uniform over the triples that keep the slot's fixed parts, avoid
         the colours already taken in its colour group and are not yet used in the scene. This has the
-        same distribution as the original's redraw-until-unique loop."""
+        same distribution as the original's redraw-until-unique loop. A ``"drop"`` slot draws over every
+        triple that keeps its fixed parts and gives None (no object) where the triple is already used."""
         taken = group_colors.get(slot.color_group, set()) if slot.color_group else set()
+        drop = slot.on_duplicate == "drop"
         candidates = [
             (shape, color, size)
             for shape in (SHAPES if slot.shape == RANDOM else (slot.shape,))
             for color in (COLORS if slot.color == RANDOM else (slot.color,))
             for size in (SIZES if slot.size == RANDOM else (slot.size,))
-            if (shape, color, size) not in used and color not in taken
+            if (drop or (shape, color, size) not in used) and color not in taken
         ]
         if not candidates:
             raise self.fail(path, f"no (shape, colour, size) left for shape={slot.shape}, size={slot.size}, "
@@ -602,6 +639,8 @@ class _Sampler:
                                   + (f" or its colour taken in group {slot.color_group!r}"
                                      if slot.color_group else ""))
         triple = candidates[int(self.rng.integers(len(candidates)))]
+        if triple in used:
+            return None
         used.add(triple)
         if slot.color_group:
             group_colors.setdefault(slot.color_group, set()).add(triple[1])
@@ -621,31 +660,36 @@ class _Sampler:
         for i, d in enumerate(layout.dynamic):
             position = self.vec(d.position, f"dynamic[{i}].position")
             velocity = self.vec(d.velocity, f"dynamic[{i}].velocity")
-            shape, color, size = self.attributes(d, f"dynamic[{i}]", used, group_colors)
-            bodies.append(make_dynamic(0, shape, color, size, position, velocity))
+            triple = self.attributes(d, f"dynamic[{i}]", used, group_colors)
+            if triple is not None:
+                shape, color, size = triple
+                bodies.append(make_dynamic(0, shape, color, size, position, velocity))
         return bodies
 
 
-def _as_layout(scene: int | str | Path | SceneLayout) -> SceneLayout:
-    return scene if isinstance(scene, SceneLayout) else load_scene(scene)
+def _as_layout(scene: int | str | Path | SceneLayout, revision: int = LAYOUT_REVISION) -> SceneLayout:
+    return scene if isinstance(scene, SceneLayout) else load_scene(scene, revision)
 
 
-def sample_world(scene: int | str | Path | SceneLayout, seed: int = 0) -> WorldSpec:
-    """A concrete scene drawn from a layout with one seeded generator.
+def sample_world(scene: int | str | Path | SceneLayout, seed: int = 0,
+                 revision: int = LAYOUT_REVISION) -> WorldSpec:
+    """A concrete scene drawn from a layout with one seeded generator (a built-in scene id in ``revision`` of the
+    built-in layouts).
 
     Every random value comes from ``numpy.random.Generator(PCG64(SeedSequence([seed, scene_id])))``,
     drawn in file order (variables, basket, static elements, dynamic slots). Bodies are created as
     wall_l, wall_r, ground, basket, statics, dynamics (initial angle pi) and get uniqueIDs N-1 ... 0.
     """
-    layout = _as_layout(scene)
+    layout = _as_layout(scene, revision)
     bodies = _Sampler(layout, _generator(layout.scene, seed)).run()
     return WorldSpec(bodies=assign_uids(bodies), scene_id=layout.scene, seed=int(seed))
 
 
-def sample_values(scene: int | str | Path | SceneLayout, seed: int = 0) -> dict[str, float]:
-    """The numbers :func:`sample_world` uses for the same (scene, seed), keyed by field path
+def sample_values(scene: int | str | Path | SceneLayout, seed: int = 0,
+                  revision: int = LAYOUT_REVISION) -> dict[str, float]:
+    """The numbers :func:`sample_world` uses for the same (scene, seed, revision), keyed by field path
     (``"variables.h"``, ``"static[2].angle"``, ``"dynamic[0].velocity[1]"``, ...)."""
-    layout = _as_layout(scene)
+    layout = _as_layout(scene, revision)
     sampler = _Sampler(layout, _generator(layout.scene, seed))
     sampler.run()
     return dict(sampler.values)

@@ -16,6 +16,7 @@ from ..files import read_json
 from ..parallel import add_workers_option
 from ..ranges import parse_ranges, parse_scenes
 from ..vocabulary import DEFAULT_ENGINE, ORIGINAL_ENGINE, SIMULATORS, engine_help
+from .samplers import DEFAULT_SAMPLER, ORIGINAL_SAMPLER, SAMPLER_ALIASES, SAMPLERS
 
 if TYPE_CHECKING:
     from .pipeline import GenerationConfig
@@ -49,16 +50,17 @@ class _Bars:
 
 
 #: The options that decide what a dataset holds: with ``--config`` the file decides them, so none may be given.
-CONTENT_OPTIONS = ("size", "seed", "scenes", "steps", "perturbations", "amount", "engine", "templates", "no_balance",
-                   "videos", "video_format", "downsampled")
+CONTENT_OPTIONS = ("size", "seed", "scenes", "steps", "perturbations", "amount", "engine", "sampler", "templates",
+                   "no_balance", "videos", "video_format", "downsampled")
 
 
 def config_from_args(args: argparse.Namespace) -> GenerationConfig:
     """The generation config of the command line, or of ``--config FILE`` (a recorded ``generation_config.json``).
 
-    Without ``--engine``, a run in a folder that holds a dataset resumes with the engine its configuration names
-    (pymunk where it names none: made before Box2D became the default); a new folder gets the default engine."""
-    from .pipeline import GenerationConfig, recorded_engine
+    Without ``--engine`` (``--sampler``), a run in a folder that holds a dataset resumes with the engine (sampler)
+    its configuration names, or the default of its time where it names none: pymunk (revision 1 of the layouts);
+    a new folder gets the default engine (sampler)."""
+    from .pipeline import GenerationConfig, recorded_setting
 
     if args.config is not None:
         given = [f"--{k.replace('_', '-')}" for k in CONTENT_OPTIONS if getattr(args, k) != args.defaults[k]]
@@ -72,7 +74,9 @@ def config_from_args(args: argparse.Namespace) -> GenerationConfig:
     fields: dict[str, Any] = {"size": args.size, "seed": args.seed, "steps": args.steps,
                               "perturbations": args.perturbations, "amount": args.amount,
                               "workers": args.workers, "videos": args.videos,
-                              "engine": args.engine or recorded_engine(args.out) or DEFAULT_ENGINE,
+                              "engine": args.engine or recorded_setting(args.out, "engine") or DEFAULT_ENGINE,
+                              "sampler": (SAMPLER_ALIASES.get(args.sampler, args.sampler)
+                                          or recorded_setting(args.out, "sampler") or DEFAULT_SAMPLER),
                               "balance": not args.no_balance, "video_format": args.video_format}
     if args.downsampled:
         fields["downsampled"] = parse_ranges(args.downsampled, "--downsampled", *DOWNSAMPLED_FPS, "frame rates")
@@ -90,11 +94,11 @@ def cmd_generate(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     if args.scheduler and args.executor != "dask":
         raise CraftError("--scheduler is for --executor dask")
-    if config.engine == ORIGINAL_ENGINE:
+    if config.engine == ORIGINAL_ENGINE or config.sampler == ORIGINAL_SAMPLER:
         from ..physics.original import find_binary
 
         find_binary()  # not built: one line saying how to build it, not one per video
-    elif args.executor == "local":
+    if config.engine != ORIGINAL_ENGINE and args.executor == "local":
         from ..physics.live import get_engine
 
         get_engine(config.engine)  # a missing extra (box2d): one line naming its pip install, not one per video
@@ -185,6 +189,13 @@ def add_commands(sub: Any) -> None:
                      help=engine_help(SIMULATORS, "; with original its renderer draws the videos too. Default: the "
                                                   "engine the --out folder's generation_config.json names when "
                                                   f"resuming (pymunk where it names none), else {DEFAULT_ENGINE}"))
+    gen.add_argument("--sampler", default=None, choices=(*SAMPLER_ALIASES, *SAMPLERS),
+                     help="who draws each video's start state: layouts (the layout files, revision 2 = layouts-2), "
+                          "layouts-1 (the layouts' revision of datasets made before), or original (the original "
+                          "simulator's own sampler, seeded; built-in scenes only; build it first: docs/original.md). "
+                          "With --engine original --sampler original the dataset is made as the original pipeline "
+                          "makes it. Default: the sampler the --out folder's generation_config.json names when "
+                          f"resuming (layouts-1 where it names none), else {DEFAULT_SAMPLER}")
     gen.add_argument("--templates", help="comma-separated template ids (default: all 67)")
     gen.add_argument("--no-balance", action="store_true",
                      help="skip answer balancing (small datasets: balancing purges every (scene, template) group "

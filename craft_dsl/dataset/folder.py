@@ -20,12 +20,23 @@ from ..verify.categories import category_of, family_of
 from ..verify.formats import Question, _read_json, parse_dataset, parse_minimal, parse_split
 from ..vocabulary import LEGACY_DEFAULT_ENGINE
 from .layout import DEFAULT_VIDEO_FORMAT, frame_relpath, id6, resolve, video_relpath
+from .samplers import LEGACY_SAMPLER
+
+#: The settings a ``generation_config.json`` may leave out, with what a file without them was made with: pymunk,
+#: the default engine before Box2D, and revision 1 of the layout files.
+LEGACY_SETTINGS: dict[str, str] = {"engine": LEGACY_DEFAULT_ENGINE, "sampler": LEGACY_SAMPLER}
 
 
 def with_legacy_defaults(recorded: dict[str, Any]) -> dict[str, Any]:
-    """A recorded ``generation_config.json`` with the settings of its time filled in: a file that names no engine
-    was made with pymunk, the default before Box2D (the file itself is left as it is)."""
-    return recorded if "engine" in recorded else {**recorded, "engine": LEGACY_DEFAULT_ENGINE}
+    """A recorded ``generation_config.json`` with the settings of its time filled in (:data:`LEGACY_SETTINGS`;
+    the file itself is left as it is)."""
+    return {**{k: v for k, v in LEGACY_SETTINGS.items() if k not in recorded}, **recorded}
+
+
+def as_recorded(settings: dict[str, Any]) -> dict[str, Any]:
+    """``settings`` as ``generation_config.json`` and the report write them: a sampler at its legacy value is left
+    out, so the files of a dataset made before the setting existed keep their bytes."""
+    return {k: v for k, v in settings.items() if not (k == "sampler" and v == LEGACY_SAMPLER)}
 
 #: The two splits of the published dataset: "random" (the paper's easy split) and "hard" (held-out scenes).
 SPLITS: tuple[str, ...] = ("random", "hard")

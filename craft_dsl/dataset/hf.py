@@ -25,7 +25,7 @@ from typing import Any
 
 from ..atomic import atomic_path
 from ..errors import CraftError, MissingExtraError
-from .folder import PARTS, SPLITS, DatasetFolder
+from .folder import PARTS, SPLITS, DatasetFolder, as_recorded
 from .layout import frame_relpath
 
 HF_FOLDER = "hf"
@@ -328,7 +328,8 @@ def card_text(folder: DatasetFolder, counts: Mapping[str, Mapping[str, int]], fi
             + (f" Parts without questions ({', '.join(empty)}) have no data files." if empty else ""), ""]
     if folder.config:
         out += ["## Generation settings", ""]
-        out += _md_table(["setting", "value"], [[k, _setting_cell(k, v)] for k, v in sorted(folder.config.items())])
+        out += _md_table(["setting", "value"], [[k, _setting_cell(k, v)]
+                                                    for k, v in sorted(as_recorded(folder.config).items())])
         customs = [e for e in folder.config.get("scenes") or () if isinstance(e, dict)]
         if customs:
             ids = ", ".join(str(e.get("scene")) for e in customs)

@@ -117,7 +117,8 @@ def write_media(sim: Simulation, root: Path, scene: int, instance_id: int, video
 def write_original_media(sim: OriginalSimulation, root: Path, scene: int, instance_id: int, video_format: str,
                          downsampled: Sequence[int] = ()) -> list[Path]:
     """:func:`write_media` for a run of the original simulator: the original renderer draws the video (the factual
-    run again, with drawing and MPEG-1 encoding on; its bytes are the ``.mpg``), and the first and last frames, an
+    run again, from the same start state or, where the original sampled it, the same seeded fresh scene, with
+    drawing and MPEG-1 encoding on; its bytes are the ``.mpg``), and the first and last frames, an
     ``.mp4`` and the lower frame rates are taken from its decoded frames."""
     import tempfile
 
@@ -127,7 +128,11 @@ def write_original_media(sim: OriginalSimulation, root: Path, scene: int, instan
     video, first, last, *lower = media_files(root, scene, instance_id, video_format, downsampled)
     with tempfile.TemporaryDirectory(prefix="craft-original-media-") as tmp:
         mpg = Path(tmp) / "original.mpg"
-        sim.simulator.run(sim.world_spec, sim.steps, video=mpg, what=f"scene {scene} video {instance_id}")
+        what = f"scene {scene} video {instance_id}"
+        if sim.sampler_seed is not None:  # the original drew the start state itself: drawn again the same way
+            sim.simulator.run_fresh(scene, sim.sampler_seed, sim.steps, video=mpg, what=what)
+        else:
+            sim.simulator.run(sim.world_spec, sim.steps, video=mpg, what=what)
         frames = decode(mpg, "pyav")
         if len(frames) != sim.steps:
             raise CraftError(f"the original renderer's video of scene {scene} video {instance_id} has {len(frames)} "

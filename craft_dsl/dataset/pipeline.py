@@ -31,7 +31,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Literal, Protocol
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from ..atomic import atomic_path
 from ..errors import CraftError
@@ -40,10 +40,11 @@ from ..templates import templates
 from ..vocabulary import DEFAULT_ENGINE
 from .custom_scenes import CustomScene, builtin_id_clash, recorded_scenes_text, scene_entry
 from .executors import Executor, LocalExecutor
-from .folder import with_legacy_defaults
+from .folder import as_recorded, with_legacy_defaults
 from .instance import InstanceResult, InstanceTask, instance_seeds, run_instance, shard_is_complete
 from .layout import DEFAULT_VIDEO_FORMAT, VideoFormat, id6, media_complete, resolve
 from .merge import WORK_FOLDER, Merger, load_state, new_state, shard_path
+from .samplers import DEFAULT_SAMPLER, Sampler, check_sampler_scenes
 from .stages import (
     HARD_SPLIT,
     SPLIT_PARTS,
@@ -65,7 +66,7 @@ FORMAT_VERSION = 3
 #: ``downsampled`` decide only which media files exist; ``video_format`` is content, since every JSON file names
 #: the videos.
 CONTENT_FIELDS: tuple[str, ...] = ("size", "seed", "scenes", "steps", "perturbations", "amount", "engine",
-                                   "templates", "video_format", "balance")
+                                   "sampler", "templates", "video_format", "balance")
 MEDIA_FIELDS: tuple[str, ...] = ("videos", "downsampled")
 #: What ``generation_config.json`` records.
 RECORDED_FIELDS: tuple[str, ...] = ("format_version", *CONTENT_FIELDS, *MEDIA_FIELDS)
@@ -96,6 +97,10 @@ class GenerationConfig(BaseModel):
     engine: Literal["pymunk", "box2d", "original"] = Field(
         DEFAULT_ENGINE, description="physics engine (box2d, the default; pymunk, the default of datasets made "
                                     "before; original: the original CRAFT simulator, which also draws the videos)")
+    sampler: Sampler = Field(DEFAULT_SAMPLER, description="who draws the start states: layouts-2 (the layout "
+                                                          "files, default), layouts-1 (their revision before, "
+                                                          "the default of datasets made before), original (the "
+                                                          "original simulator's own sampler)")
     templates: tuple[str, ...] = Field(tuple(templates()), description="template ids to instantiate")
     balance: bool = Field(True, description="answer balancing (off: keep every question that passed the filters)")
 
@@ -129,6 +134,13 @@ class GenerationConfig(BaseModel):
                                  "needs an id of its own (a layout's is its \"scene\" field)")
             seen[sid] = s
         return v
+
+    @model_validator(mode="after")
+    def _sampler_makes_scenes(self) -> GenerationConfig:
+        problem = check_sampler_scenes(self.sampler, self.scenes)
+        if problem:
+            raise ValueError(problem)
+        return self
 
     @field_validator("templates")
     @classmethod
@@ -171,9 +183,10 @@ class GenerationConfig(BaseModel):
         return {s.scene: s for s in self.scenes if isinstance(s, CustomScene)}
 
     def content(self) -> dict[str, Any]:
-        """The fields that decide the generated content (the report's ``config``)."""
+        """The fields that decide the generated content (the report's ``config``), as recorded
+        (:func:`as_recorded`)."""
         data = self.model_dump(mode="json")
-        return {k: data[k] for k in CONTENT_FIELDS}
+        return as_recorded({k: data[k] for k in CONTENT_FIELDS})
 
     @classmethod
     def from_recorded(cls, data: Any, source: str = "generation_config.json", **overrides: Any) -> GenerationConfig:
@@ -200,7 +213,8 @@ class GenerationConfig(BaseModel):
         """What ``generation_config.json`` records: the format version and every setting that changes the
         output (:data:`RECORDED_FIELDS`)."""
         data = self.model_dump(mode="json")
-        return {"format_version": FORMAT_VERSION, **{k: data[k] for k in (*CONTENT_FIELDS, *MEDIA_FIELDS)}}
+        return as_recorded({"format_version": FORMAT_VERSION,
+                            **{k: data[k] for k in (*CONTENT_FIELDS, *MEDIA_FIELDS)}})
 
 
 # -- work list -----------------------------------------------------------------------------------------------
@@ -244,11 +258,18 @@ def _write_small(data: Any, path: Path) -> None:
         tmp.write_text(json.dumps(data, indent=2, sort_keys=True) + "\n", encoding="utf-8")
 
 
+def recorded_setting(folder: str | Path, name: str) -> str | None:
+    """The setting ``name`` (``engine``, ``sampler``) the dataset in ``folder`` was generated with (the default of
+    its time where its configuration names none), or ``None`` where the folder holds no readable
+    ``generation_config.json``."""
+    data = _load_json(Path(folder) / "generation_config.json")
+    return str(with_legacy_defaults(data)[name]) if isinstance(data, dict) else None
+
+
 def recorded_engine(folder: str | Path) -> str | None:
     """The engine the dataset in ``folder`` was generated with (pymunk where its configuration names none), or
     ``None`` where the folder holds no readable ``generation_config.json``."""
-    data = _load_json(Path(folder) / "generation_config.json")
-    return str(with_legacy_defaults(data)["engine"]) if isinstance(data, dict) else None
+    return recorded_setting(folder, "engine")
 
 
 def differing_settings(old: Any, new: dict[str, Any]) -> list[str]:
@@ -274,16 +295,18 @@ def _prepare_folder(root: Path, config: GenerationConfig, force: bool, log: RunL
     path = root / "generation_config.json"
     new = config.recorded()
     if path.exists():
+        # compared as made: a setting a file leaves out has the default of its time, on both sides
         old = _load_json(path)
-        if isinstance(old, dict):  # compared as made: a file naming no engine was made with the default of its time
+        if isinstance(old, dict):
             old = with_legacy_defaults(old)
-        if old != new:
-            diff = differing_settings(old, new)
+        filled = with_legacy_defaults(new)
+        if old != filled:
+            diff = differing_settings(old, filled)
             if not force:
                 raise CraftError(f"{root} holds a dataset generated with other settings ({'; '.join(diff)}; see "
                                  f"{path}): use a new output folder, the same settings to resume, or --force to "
                                  "start over with these settings")
-            if not isinstance(old, dict) or any(old.get(k) != new[k] for k in RECORDED_FIELDS
+            if not isinstance(old, dict) or any(old.get(k) != filled[k] for k in RECORDED_FIELDS
                                                 if k not in MEDIA_FIELDS):
                 log.write(f"--force: settings changed ({'; '.join(diff)}): removing the generated files")
                 for name in GENERATED:
@@ -389,7 +412,8 @@ def instance_task(config: GenerationConfig, instance_id: int, scene: int, questi
     custom = config.custom_scenes.get(scene)
     return InstanceTask(instance_id, scene, config.seed, config.steps, config.perturbations, config.amount,
                         config.engine, config.templates, config.video_format, questions, media, config.downsampled,
-                        custom.layout if custom is not None else "", media_thread)
+                        custom.layout if custom is not None else "", sampler=config.sampler,
+                        media_thread=media_thread)
 
 
 class _MergeThread:
@@ -536,6 +560,6 @@ __all__ = [
     "CONTENT_FIELDS", "FORMAT_VERSION", "GenerationConfig", "HARD_SPLIT", "InstanceTask", "Progress",
     "RECORDED_FIELDS", "SPLIT_PARTS", "answer_label", "balance", "dataset_videos", "differing_settings",
     "generate_dataset", "hard_split", "id6", "instance_seeds", "instance_task", "post_process", "random_split",
-    "recorded_engine", "run_instance", "sweep_temporary_files", "template_id_of", "video_path", "with_legacy_defaults",
-    "work_list",
+    "recorded_engine", "recorded_setting", "run_instance", "sweep_temporary_files", "template_id_of", "video_path",
+    "with_legacy_defaults", "work_list",
 ]

@@ -50,6 +50,9 @@ ENV_DISPLAY = "CRAFT_ORIGINAL_DISPLAY"
 ENV_TIMEOUT = "CRAFT_ORIGINAL_TIMEOUT"
 #: Set for runs without a video: the build skips drawing (it changes nothing the binary writes).
 NO_DRAW = "CRAFT_ORIGINAL_NO_DRAW"
+#: Seeds the original's own scene sampler (the build's edit; an unsigned 32-bit decimal). Unset, the original seeds
+#: it from the clock and the hardware, as it was written.
+ENV_SEED = "CRAFT_ORIGINAL_SEED"
 #: The file a finished build writes last in its cache folder.
 BUILD_STAMP = "BUILD_COMPLETE"
 #: The binary inside a build folder; its folder holds the Data/ it reads from its working directory.
@@ -374,26 +377,48 @@ class OriginalSimulator:
 
     def _run_once(self, world: WorldSpec, steps: int, video: str | os.PathLike[str] | None,
                   what: str) -> OriginalRun:
+        return self._execute(world.scene_id if isinstance(world.scene_id, int) else 1, steps, video,
+                             what or _describe(world), scene=scene_file(world))
+
+    def run_fresh(self, scene_id: int, seed: int | None, steps: int = DEFAULT_STEPS,
+                  video: str | os.PathLike[str] | None = None, what: str = "") -> OriginalRun:
+        """Let the original sample scene ``scene_id`` itself and simulate it in the same run, as its own pipeline
+        makes a video: seeded with ``seed`` through the build's edit (:data:`ENV_SEED`), or, with None, from the
+        clock and the hardware. The output's step-0 scene is the start state it drew."""
+        label = what or f"a fresh scene {scene_id} ({'unseeded' if seed is None else f'seed {seed}'})"
+        try:
+            return self._execute(scene_id, steps, video, label, seed=seed)
+        except OriginalSimulatorError:
+            if not _DISPLAY.lost():
+                raise
+            return self._execute(scene_id, steps, video, label, seed=seed)
+
+    def _execute(self, scene_id: int, steps: int, video: str | os.PathLike[str] | None, label: str, *,
+                 scene: dict[str, Any] | None = None, seed: int | None = None) -> OriginalRun:
+        """One run of the binary: from ``scene`` (a step-0 scene file), or a scene the original samples itself
+        (``scene`` None, seeded with ``seed``)."""
         import time
 
         if steps < 1:
             raise OriginalSimulatorError(f"steps must be at least 1, got {steps}")
-        label = what or _describe(world)
-        scene = scene_file(world)
         display = _DISPLAY.name()
         with tempfile.TemporaryDirectory(prefix="craft-original-") as tmp:
             folder = Path(tmp)
             scene_path, out_json = folder / "scene.json", folder / "out.json"
             out_video = folder / "out.mpg" if video is not None else None
-            scene_path.write_text(json.dumps(scene))
+            if scene is not None:
+                scene_path.write_text(json.dumps(scene))
             controller = {
-                "simulationID": world.scene_id if isinstance(world.scene_id, int) else 1,
-                "offline": True, "width": VIDEO_SIZE, "height": VIDEO_SIZE,
-                "inputScenePath": str(scene_path), "outputVideoPath": str(out_video or ""),
+                "simulationID": scene_id, "offline": True, "width": VIDEO_SIZE, "height": VIDEO_SIZE,
+                "inputScenePath": str(scene_path) if scene is not None else "",
+                "outputVideoPath": str(out_video or ""),
                 "outputJSONPath": str(out_json), "stepCount": steps, "noiseAmount": 0.0, "perturbationSeed": 0,
             }
             (folder / "controller.json").write_text(json.dumps(controller))
             env = dict(os.environ, DISPLAY=display)
+            env.pop(ENV_SEED, None)
+            if scene is None and seed is not None:
+                env[ENV_SEED] = str(seed)
             if video is None:
                 env[NO_DRAW] = "1"  # nothing is recorded, so nothing needs drawing (the build's own edit)
             start = time.perf_counter()
@@ -442,6 +467,9 @@ class OriginalSimulation(Simulation):
     output: dict[str, Any]
     video: Path | None
     seconds: float
+    #: The seed of the original's own sampler, where the original drew this run's start state itself
+    #: (:func:`craft_dsl.physics.original_sampler.simulate_fresh`): the video is then made the same way.
+    sampler_seed: int | None = None
 
     @classmethod
     def _from_run(cls, simulator: OriginalSimulator, world: WorldSpec, steps: int, run: OriginalRun,

@@ -20,10 +20,8 @@ first world step, so a run of one step is enough.
 
 from __future__ import annotations
 
-import json
 import math
 import os
-import tempfile
 from collections.abc import Iterable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import replace
@@ -34,18 +32,15 @@ from pydantic import ValidationError
 
 from ..recorded import ObjectRecord
 from ..vocabulary import COLORS, SHAPES, SIZES, STATIC_COLOR, STATIC_SIZE
-from ..world import DENSITY, BodySpec, WorldSpec, make_dynamic, make_static
+from ..world import DEFAULT_STEPS, DENSITY, BodySpec, WorldSpec, make_dynamic, make_static
 from .original import (
-    _DISPLAY,
-    DEFAULT_TIMEOUT,
-    ENV_TIMEOUT,
-    NO_DRAW,
-    VIDEO_SIZE,
+    ENV_SEED,
+    OriginalSimulation,
+    OriginalSimulator,
     OriginalSimulatorError,
     find_binary,
     original_polygon,
     polygon_mass,
-    run_binary,
 )
 
 __all__ = [
@@ -57,11 +52,10 @@ __all__ = [
     "run_fresh_scene",
     "sample_original",
     "sample_original_many",
+    "simulate_fresh",
     "world_from_scene",
 ]
 
-#: The environment variable the build's edit reads; unset, the original seeds from the clock and the hardware.
-ENV_SEED = "CRAFT_ORIGINAL_SEED"
 #: Seeds run from 0 to this (the edit takes an unsigned 32-bit integer).
 SEED_LIMIT = 2**32 - 1
 #: Steps a sampling run simulates: the step-0 record is written before the first step, and one is the fewest.
@@ -101,26 +95,7 @@ def run_fresh_scene(scene_id: int, seed: int | None, *, binary: Path | None = No
     check_seed(seed)
     if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
         raise OriginalSimulatorError(f"steps must be an int of at least 1, got {steps!r}")
-    exe = binary if binary is not None else find_binary()
-    env_timeout = os.environ.get(ENV_TIMEOUT)
-    limit = timeout if timeout is not None else float(env_timeout) if env_timeout else DEFAULT_TIMEOUT
-    label = _label(scene_id, seed)
-    display = _DISPLAY.name()
-    with tempfile.TemporaryDirectory(prefix="craft-original-sample-") as tmp:
-        folder = Path(tmp)
-        out_json = folder / "out.json"
-        controller = {
-            "simulationID": scene_id, "offline": True, "width": VIDEO_SIZE, "height": VIDEO_SIZE,
-            "inputScenePath": "", "outputVideoPath": "", "outputJSONPath": str(out_json), "stepCount": steps,
-        }
-        (folder / "controller.json").write_text(json.dumps(controller))
-        env = dict(os.environ, DISPLAY=display)
-        env[NO_DRAW] = "1"  # no video: nothing drawn is read
-        env.pop(ENV_SEED, None)
-        if seed is not None:
-            env[ENV_SEED] = str(seed)
-        output = run_binary(exe, folder / "controller.json", exe.parent, env, limit, label, out_json)
-    return output
+    return OriginalSimulator(binary, timeout).run_fresh(scene_id, seed, steps, what=_label(scene_id, seed)).output
 
 
 def _start_objects(output: Mapping[str, Any], label: str) -> list[Any]:
@@ -200,6 +175,24 @@ def sample_original(scene_id: int, seed: int | None, *, binary: Path | None = No
     label = _label(scene_id, seed)
     output = run_fresh_scene(scene_id, seed, binary=binary, timeout=timeout)
     return world_from_scene(_start_objects(output, label), scene_id, seed, label)
+
+
+def simulate_fresh(scene_id: int, seed: int, steps: int = DEFAULT_STEPS, *,
+                   simulator: OriginalSimulator | None = None,
+                   meta: Mapping[str, Any] | None = None) -> OriginalSimulation:
+    """A video as the original pipeline makes it: the original samples scene ``scene_id`` with ``seed`` and
+    simulates it in one run. The simulation's start state (``world_spec``) is that run's step-0 scene, from which
+    its counterfactuals and perturbations are run, as the original pipeline runs them; its video
+    (:func:`craft_dsl.dataset.layout.write_original_media`) is the same fresh run, drawn."""
+    _check_scene_id(scene_id)
+    check_seed(seed)
+    runner = simulator or OriginalSimulator()
+    label = _label(scene_id, seed)
+    run = runner.run_fresh(scene_id, seed, steps, what=label)
+    world = world_from_scene(_start_objects(run.output, label), scene_id, seed, label)
+    sim = OriginalSimulation._from_run(runner, world, steps, run, dict(meta or {}), ())
+    sim.sampler_seed = seed
+    return sim
 
 
 def sample_original_many(pairs: Iterable[tuple[int, int | None]], *, workers: int | None = None,
