@@ -22,8 +22,8 @@ import pytest
 
 from craft_dsl.cli import main
 from craft_dsl.dataset import pipeline as P
-from craft_dsl.errors import CraftError
 from craft_dsl.dataset.samplers import DEFAULT_SAMPLER
+from craft_dsl.errors import CraftError
 from craft_dsl.vocabulary import DEFAULT_ENGINE, LEGACY_DEFAULT_ENGINE
 
 LEGACY = json.loads((Path(__file__).parent / "data" / "legacy_datasets.json").read_text(encoding="utf-8"))
@@ -119,7 +119,8 @@ def test_a_new_folder_gets_the_default_engine_and_sampler(tmp_path: Path) -> Non
 
 def test_revision_2_changes_scenes_7_and_15_and_layouts_1_keeps_them(tmp_path: Path) -> None:
     """A new dataset of scenes 7 and 15 differs from the one made before revision 2 (seed 2 drops scene 7's 4th
-    object in video 0; scene 15's platform moves by 0.4 mm, which changes none of these questions); asking for ``--sampler layouts-1`` gives the old questions again."""
+    object in video 0; scene 15's platform moves by 0.4 mm, which changes none of these questions); asking for
+    ``--sampler layouts-1`` gives the old questions again."""
     legacy = LEGACY["box2d_scenes_7_15"]["sha256"]
     new, old = tmp_path / "new", tmp_path / "old"
     assert main(["generate", *made_with("box2d_scenes_7_15"), "--out", str(new)]) == 0
