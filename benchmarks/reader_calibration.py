@@ -8,13 +8,18 @@ Details written before answers carried confidences lack ``confidence_inputs``: w
 that read (``PERCEIVED``) they are measured again from the perceived scenes (and kept in
 ``DETAILS.measured.jsonl``). Each
 answer is right when it agrees with the dataset's (``craft_dsl.verify.answers.answers_agree``, as
-``benchmarks/reader.py`` scores).
+``benchmarks/reader.py`` scores). ``--measure-again`` measures every answer's inputs again from the perceived scenes
+with the current code (kept in ``DETAILS.measured-again.jsonl``); ``--without-engine-alternative`` does so as an
+install without the other physics engine would (the engine alternative unavailable for every answer; kept in
+``DETAILS.measured-without-engine.jsonl``), so that calibration is measured both ways.
 
 Run::
 
     python benchmarks/reader_calibration.py --read /tmp/ho --out /tmp/conf/ho --workers 2   # details + perceived
     python benchmarks/reader_calibration.py --fit /tmp/ho:/tmp/conf/ho/details.jsonl ... \\
         --eval /tmp/ho2:/tmp/conf/ho2/details.jsonl ... [--write]
+    python benchmarks/reader_calibration.py --without-engine-alternative \\
+        --eval /tmp/ho2:/tmp/conf/ho2/details.jsonl:/tmp/conf/ho2/perceived
 
 Figures are printed (Markdown), never asserted.
 """
@@ -51,6 +56,7 @@ class Labelled:
     warning: bool
     correct: bool
     template_id: str
+    premise: bool = False
 
 
 def reliability(confidence: Sequence[float], correct: Sequence[bool], bins: int = BINS,
@@ -111,19 +117,22 @@ def _details(path: Path) -> list[dict[str, Any]]:
     return rows
 
 
-def _measured_again(rows: list[dict[str, Any]], questions: dict[tuple[int, int], str], perceived: Path) -> None:
-    """Fill ``confidence_inputs`` of the rows that lack it from the perceived scene of their video."""
+def _measured_again(rows: list[dict[str, Any]], questions: dict[tuple[int, int], str], perceived: Path,
+                    every: bool = False) -> None:
+    """Fill ``confidence_inputs`` of the rows that lack it (``every``: of every row) from the perceived scene of
+    their video."""
     from craft_dsl.perception.schema import PerceivedScene
     from craft_dsl.reader.answer import Answer, Question
 
     by_video: dict[int, list[dict[str, Any]]] = defaultdict(list)
     for r in rows:
-        if "confidence_inputs" not in r:
+        if every or "confidence_inputs" not in r:
             by_video[r["video_index"]].append(r)
     for done, (v, group) in enumerate(sorted(by_video.items()), 1):
         scene = PerceivedScene.model_validate_json((perceived / f"{v:06d}.json").read_text(encoding="utf-8"))
         qs = [Question(v, r["question_index"], questions[(v, r["question_index"])]) for r in group]
-        answers = [Answer(q, r["answer"], fallback=bool(r.get("fallback"))) for q, r in zip(qs, group)]
+        answers = [Answer(q, r["answer"], fallback=bool(r.get("fallback")), premise=r.get("premise"))
+                   for q, r in zip(qs, group)]
         for r, inputs in zip(group, confidence_inputs(scene, qs, answers)):
             r["confidence_inputs"] = inputs
         print(f"\r{perceived}: {done}/{len(by_video)} videos measured", end="", file=sys.stderr, flush=True)
@@ -131,28 +140,43 @@ def _measured_again(rows: list[dict[str, Any]], questions: dict[tuple[int, int],
         print(file=sys.stderr)
 
 
-def load_labelled(spec: str) -> list[Labelled]:
-    """The labelled answers of ``DATASET:DETAILS[:PERCEIVED]``."""
+def without_engine_alternative() -> None:
+    """Measure from now on as an install without the other physics engine would: the engine alternative
+    unavailable for every answer (:func:`craft_dsl.reader.confidence.engine_missing`)."""
+    from craft_dsl.reader import confidence
+
+    def missing(engine: str) -> str:
+        return f"{engine}: left out (benchmarks/reader_calibration.py --without-engine-alternative)"
+
+    confidence.engine_missing = missing
+
+
+def load_labelled(spec: str, again: str = "") -> list[Labelled]:
+    """The labelled answers of ``DATASET:DETAILS[:PERCEIVED]``; ``again``: measure every answer's inputs again
+    from the perceived scenes, kept in ``DETAILS.measured-<again>.jsonl``."""
     parts = spec.split(":")
     if len(parts) not in (2, 3):
         raise SystemExit(f"{spec}: expected DATASET:DETAILS or DATASET:DETAILS:PERCEIVED")
     root, details = Path(parts[0]), Path(parts[1])
     records = json.loads((root / "dataset_minimal.json").read_text(encoding="utf-8"))
     truth = {(r["video_index"], r["question_index"]): r for r in records}
-    measured = details.with_name(details.name + ".measured.jsonl")  # the rows measured again, kept for later runs
+    # the rows measured again, kept for later runs
+    measured = details.with_name(details.name + (f".measured-{again}" if again else ".measured") + ".jsonl")
     rows = _details(measured if measured.exists() else details)
-    if any("confidence_inputs" not in r for r in rows):
+    if (again and not measured.exists()) or any("confidence_inputs" not in r for r in rows):
         if len(parts) != 3:
-            raise SystemExit(f"{details}: answers without confidence_inputs; give the --perceived folder of that read "
-                             "as DATASET:DETAILS:PERCEIVED")
-        _measured_again(rows, {k: r["question"] for k, r in truth.items()}, Path(parts[2]))
+            raise SystemExit(f"{details}: answers to measure again (without confidence_inputs, or "
+                             "--measure-again / --without-engine-alternative); give the --perceived folder of that "
+                             "read as DATASET:DETAILS:PERCEIVED")
+        _measured_again(rows, {k: r["question"] for k, r in truth.items()}, Path(parts[2]), every=bool(again))
         measured.write_text("".join(json.dumps(r) + "\n" for r in rows), encoding="utf-8")
     out = []
     for r in rows:
         t = truth[(r["video_index"], r["question_index"])]
         out.append(Labelled(spec, f"{r['video_index']}_{r['question_index']}", r["confidence_inputs"],
                             bool(r.get("fallback")), r.get("warning") is not None,
-                            r["answer"] is not None and answers_agree(r["answer"], t["answer"]), t["template_id"]))
+                            r["answer"] is not None and answers_agree(r["answer"], t["answer"]), t["template_id"],
+                            r.get("premise") is not None))
     return out
 
 
@@ -185,7 +209,7 @@ def cross_validated(labelled: list[Labelled], folds: int, l2: float, drop: Seque
                           l2, drop=drop)
         for i, (x, f) in enumerate(zip(labelled, fold)):
             if f == k:
-                out[i] = model.confidence(x.inputs, x.fallback, x.warning)
+                out[i] = model.confidence(x.inputs, x.fallback, x.warning, x.premise)
     return out
 
 
@@ -194,7 +218,7 @@ def report(name: str, labelled: list[Labelled], model: ConfidenceModel,
     """Print the reliability diagram, ECE (with its bootstrap interval) and risk-coverage table of ``model`` on
     ``labelled`` (or of the ``confidences`` given); return them."""
     conf = list(confidences) if confidences is not None else \
-        [model.confidence(x.inputs, x.fallback, x.warning) for x in labelled]
+        [model.confidence(x.inputs, x.fallback, x.warning, x.premise) for x in labelled]
     ok = [x.correct for x in labelled]
     e = ece(conf, ok)
     low, high = ece_interval(conf, ok)
@@ -249,13 +273,25 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--cv", type=int, default=0, help="also report K-fold cross-validation by video on the fit "
                                                           "set (default: none)")
     parser.add_argument("--write", action="store_true", help=f"write the fitted model to {MODEL_PATH}")
+    parser.add_argument("--measure-again", action="store_true",
+                        help="measure every answer's inputs again from the perceived scenes with the current code "
+                             "(sets given as DATASET:DETAILS:PERCEIVED)")
+    parser.add_argument("--without-engine-alternative", action="store_true",
+                        help="measure every answer's inputs again as an install without the other physics engine "
+                             "would (the engine alternative unavailable), from the perceived scenes")
     args = parser.parse_args(argv)
+    again = ""
+    if args.without_engine_alternative:
+        without_engine_alternative()
+        again = "without-engine"
+    elif args.measure_again:
+        again = "again"
     if args.read:
         if not args.out:
             parser.error("--read needs --out")
         read_dataset(Path(args.read), Path(args.out), args.workers, args.every, args.offset)
         return
-    fit = [x for spec in args.fit for x in load_labelled(spec)]
+    fit = [x for spec in args.fit for x in load_labelled(spec, again)]
     model = default_model()
     if fit:
         model = fit_model([x.inputs or {} for x in fit], [x.correct for x in fit], [x.fallback for x in fit],
@@ -275,7 +311,7 @@ def main(argv: Sequence[str] | None = None) -> None:
             print(f"wrote {MODEL_PATH}", file=sys.stderr)
     held: list[Labelled] = []
     for spec in args.eval:
-        one = load_labelled(spec)
+        one = load_labelled(spec, again)
         held += one
         report(f"held out: {spec}", one, model)
     if len(args.eval) > 1:

@@ -169,3 +169,6 @@ def test_a_measurement_that_fails_leaves_the_answers_standing(monkeypatch: pytes
     [a] = answer_questions(scene, [Question(0, 0, "How many objects fall to the ground?")])
     assert a.answer is not None and a.confidence is not None and 0.0 <= a.confidence <= 1.0
     assert a.confidence_inputs["scene_p"] is None and "bogus" not in a.confidence_inputs["agree"]
+    # each failure named with its reason (tests/test_reader_confidence_failures.py: the confidence only falls)
+    assert "no distribution today" in a.confidence_inputs["failed"]["scene_p"]
+    assert "nonsense" in a.confidence_inputs["failed"]["bogus"]

@@ -5,7 +5,8 @@ The reader sees a questions file and video files only. Of each question record i
 program comes from its text (:func:`craft_dsl.question_parsing.question_to_program`); the video is found by its
 index written in six digits (``<id6>.mpg``, ``.mp4``, ... anywhere under the videos folders, or a file given by
 path; folder names, which hold the scene id in the published layout, are not read), or named in a mapping file
-(:func:`read_video_map`).
+(:func:`read_video_map`). The records, :class:`Question` and :class:`Answer`, and :func:`format_answer` live in
+:mod:`craft_dsl.reader.records` and are importable from here.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import io
 import os
 import re
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -26,77 +27,17 @@ from ..perception.distribution import answer_distributions
 from ..perception.premise import premise_reading
 from ..perception.schema import PerceivedScene
 from ..perception.world import SceneModel
-from ..program import Program, to_json
+from ..program import Program
 from ..question_parsing import question_to_program
 from ..types import DslType
+from .confidence import with_confidence
+from .records import Answer, Question, format_answer
 from .votes import VOTES, vote_counterfactuals
 
 #: The containers a video may come in (every one PyAV decodes); of several files of one index, ``.mpg`` is taken.
 VIDEO_SUFFIXES = (".mpg", ".mpeg", ".mp4", ".avi", ".mkv", ".webm", ".mov", ".gif")
 #: The header line of a CSV mapping file.
 VIDEO_MAP_HEADER = ("video_index", "path")
-
-
-@dataclass(frozen=True)
-class Question:
-    """One question to answer: which video, which question of it, and its text."""
-
-    video_index: int
-    question_index: int
-    text: str
-
-    @property
-    def key(self) -> str:
-        return f"{self.video_index}_{self.question_index}"
-
-
-@dataclass(frozen=True)
-class Answer:
-    """The reader's answer to one question, as ``dataset_minimal.json`` writes answers (``"True"``, ``"2"``,
-    ``"Red"``), with the probability of that answer when a distribution was computed, or the reason there is none.
-    ``fallback``: the answer is a guess of the program's answer type (:func:`fallback_answer`), not read from the
-    video; ``error`` says why. ``premise``: the answer comes from a reading that reads one object otherwise (one
-    or two of its attributes), the one the question names (:mod:`craft_dsl.perception.premise`), and says which.
-    ``votes``: for a counterfactual question, how many of the replays (the reader's own and the perturbed ones,
-    :func:`vote_counterfactuals`) gave each answer. ``warning``: why the video it was read from is not whole (its
-    answers may be wrong). ``confidence``: the
-    probability that the answer is right (:mod:`craft_dsl.reader.confidence`), from ``confidence_inputs``,
-    what the reading showed about it."""
-
-    question: Question
-    answer: str | None
-    probability: float | None = None
-    program: str | None = None
-    error: str | None = None
-    fallback: bool = False
-    premise: str | None = None
-    votes: dict[str, int] | None = None
-    warning: str | None = None
-    confidence: float | None = None
-    confidence_inputs: dict[str, Any] | None = None
-
-    def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"video_index": self.question.video_index,
-                               "question_index": self.question.question_index, "answer": self.answer}
-        if self.probability is not None:
-            out["probability"] = round(self.probability, 6)
-        if self.program is not None:
-            out["program"] = self.program
-        if self.error is not None:
-            out["error"] = self.error
-        if self.fallback:
-            out["fallback"] = True
-        if self.premise is not None:
-            out["premise"] = self.premise
-        if self.votes is not None:
-            out["votes"] = self.votes
-        if self.warning is not None:
-            out["warning"] = self.warning
-        if self.confidence is not None:
-            out["confidence"] = round(self.confidence, 6)
-        if self.confidence_inputs is not None:
-            out["confidence_inputs"] = self.confidence_inputs
-        return out
 
 
 def _int_field(record: Mapping[str, Any], name: str, where: str) -> int:
@@ -276,32 +217,23 @@ def find_videos(sources: VideoSources, indices: Sequence[int],
     return out
 
 
-def format_answer(value: Any) -> str | None:
-    """An answer as ``dataset_minimal.json`` writes it: ``"True"``, ``"2"``, ``"Red"``; None for INVALID."""
-    raw = to_json(value, original=True)
-    if isinstance(raw, bool):
-        return "True" if raw else "False"
-    if isinstance(raw, int):
-        return str(raw)
-    if isinstance(raw, str):
-        return None if raw == "__INVALID__" else raw.capitalize()
-    return None
-
-
 def answer_questions(scene: PerceivedScene, questions: Sequence[Question], distribution: bool = False,
                      samples: int = 64, seed: int = 0, confidence: bool = True, votes: int = VOTES) -> list[Answer]:
     """Answer each question over ``scene``: on its most likely world, or as the mode of its answer distribution
     (with that answer's probability) when ``distribution`` is set; a counterfactual question's answer is the
     majority of the replay and ``votes`` perturbed replays (:func:`vote_counterfactuals`; 0: the replay alone);
-    with ``confidence``, each answer carries its confidence (:func:`craft_dsl.reader.confidence.with_confidence`)."""
+    with ``confidence``, each answer carries its confidence (:func:`craft_dsl.reader.confidence.with_confidence`).
+    What the scene's ``meta["unchecked"]`` says could not be checked about the video goes to each answer's
+    ``unchecked``."""
     model = SceneModel(scene)
     answers = _answer_questions(model, questions, distribution, samples, seed)
+    unchecked = tuple(str(m) for m in (scene.meta or {}).get("unchecked", ()))
+    if unchecked:  # what could not be checked about the video: every answer says so
+        answers = [replace(a, unchecked=unchecked) for a in answers]
     if votes > 0:
         answers = vote_counterfactuals(model, answers, votes)
     if not confidence:
         return answers
-    from .confidence import with_confidence
-
     return with_confidence(scene, questions, answers, samples=samples, seed=seed, base=model)
 
 
@@ -369,3 +301,7 @@ FALLBACK = {DslType.BOOL: "False", DslType.INTEGER: "0", DslType.COLOR: "Gray", 
 def fallback_answer(program: Program) -> str:
     """A guess of the program's answer type (predictions files hold an answer for every question)."""
     return FALLBACK.get(program.type, "False")
+
+
+__all__ = ["FALLBACK", "VIDEO_MAP_HEADER", "VIDEO_SUFFIXES", "Answer", "Question", "answer_questions",
+           "fallback_answer", "find_videos", "format_answer", "read_questions", "read_video_map"]

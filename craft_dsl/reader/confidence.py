@@ -23,14 +23,26 @@ read-details (``benchmarks/reader_calibration.py``); its parameters are ``confid
 A fallback answer (a guess of the answer type, ``Answer.fallback``) gets the rate at which such guesses were right
 in the fitting data, per answer type; an answer read from a video that is not whole (``Answer.warning``) gets at most
 that rate too (no labelled cut videos were fitted: a rule, not a fit).
+
+A measurement that fails never raises the confidence. Its input is recorded as not measured, with the reason, in
+``failed`` (``{"engine": "RuntimeError: ...", "scene_p": "..."}``), and the confidence is the least the model gives
+over every value the input could have taken: an alternative that raises, for the whole scene or for one program,
+counts as agreeing or differing, whichever says less; a scene probability that fails, as any probability from 1 down
+to that of the scene's most likely reading (``scene_p_floor``; the answer holds in that reading). An alternative
+that cannot run in this install at all (the other engine's package missing: ``unavailable``) is not a failure of
+this answer's measurement but a different install, the same for every answer: its agreement is weighed at the rate
+the fitting data's answers agreed (the feature's mean), which keeps the confidences calibrated there, and is never
+more than counting it as agreeing.
 """
 
 from __future__ import annotations
 
+import importlib
+import itertools
 import json
 import math
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -43,10 +55,10 @@ from ..program import Program
 from ..question_parsing import match_question
 from ..verify.categories import CATEGORIES, category_of
 from ..vocabulary import DEFAULT_ENGINE
+from .records import Answer, Question, format_answer
 
 if TYPE_CHECKING:
     from ..perception.world import SceneModel
-    from .answer import Answer, Question
 
 #: The fitted parameters shipped with the package.
 MODEL_PATH = Path(__file__).with_name("confidence.json")
@@ -55,6 +67,8 @@ ALTERNATIVES: dict[str, dict[str, str]] = {"engine": {}, "resimulate": {"counter
                                            "derived": {"events": "derived"}}
 #: The other engine of each engine the reader keeps.
 OTHER_ENGINE = {"pymunk": "box2d", "box2d": "pymunk"}
+#: The package each physics engine needs.
+ENGINE_PACKAGES = {"pymunk": "pymunk", "box2d": "Box2D"}
 #: The confidence of an answer taken from the reading its question names (:mod:`craft_dsl.perception.premise`): the
 #: share of such answers that were right on development videos (43 of 51, 128-px copies; see docs/reader-history.md),
 #: rounded down.
@@ -79,56 +93,105 @@ def _category(text: str) -> str | None:
         return None
 
 
-def _alternative_answers(scene: PerceivedScene, programs: Sequence[Program | None], base: SceneModel | None = None
-                         ) -> dict[str, list[str | None]]:
-    """Each program's answer under each of :data:`ALTERNATIVES` (``"!"`` where it raised; None for no program).
-    ``base``: the scene's model as answered, whose fitted physics the alternatives with the same engine reuse."""
-    from ..perception.world import ExecutionOptions, SceneModel
-    from .answer import format_answer
+def engine_missing(engine: str) -> str | None:
+    """Why the physics ``engine`` cannot run in this install (its package is not installed); None where it can."""
+    package = ENGINE_PACKAGES.get(engine)
+    if package is None:
+        return f"no physics engine {engine!r}"
+    try:
+        importlib.import_module(package)
+    except ImportError as err:
+        return f"{engine} is not installed here ({err})"
+    return None
 
-    out: dict[str, list[str | None]] = {}
+
+def _reason(err: BaseException) -> str:
+    return f"{type(err).__name__}: {err}"
+
+
+@dataclass(frozen=True)
+class _Outcome:
+    """One program's answer under one alternative execution (``"INVALID"`` where it has none), or why it was not
+    measured: ``failed`` (the execution raised) or ``unavailable`` (it cannot run in this install)."""
+
+    answer: str | None = None
+    failed: str | None = None
+    unavailable: str | None = None
+
+
+def _alternative_answers(scene: PerceivedScene, programs: Sequence[Program | None], base: SceneModel | None = None
+                         ) -> dict[str, list[_Outcome | None]]:
+    """Each program's outcome under each of :data:`ALTERNATIVES` (None for no program). ``base``: the scene's model
+    as answered, whose fitted physics the alternatives with the same engine reuse."""
+    from ..perception.world import ExecutionOptions, SceneModel
+
+    out: dict[str, list[_Outcome | None]] = {}
     for name, fields in ALTERNATIVES.items():
         options: dict[str, Any] = dict(fields)
+        whole: _Outcome | None = None  # the outcome of every program where the execution does not run at all
         if name == "engine":
-            other = OTHER_ENGINE.get(scene.physics or DEFAULT_ENGINE)
-            if other is None:
-                continue
+            physics = scene.physics or DEFAULT_ENGINE
+            other = OTHER_ENGINE.get(physics)
+            missing = f"no other engine than {physics}" if other is None else engine_missing(other)
+            if missing is not None:
+                whole = _Outcome(unavailable=missing)
             options["engine"] = other
-        answers: list[str | None] = []
-        try:
-            model = SceneModel(scene, ExecutionOptions(**options))
-            if base is not None and "engine" not in options and "physics" in base.__dict__:
-                model.__dict__["physics"] = base.physics  # the same fit (a cached_property's value): not redone
-            sim = model.simulation()
-        except Exception:  # noqa: BLE001 - e.g. Box2D not installed: this alternative is not measured
-            continue
+        sim = None
+        if whole is None:
+            try:
+                model = SceneModel(scene, ExecutionOptions(**options))
+                if base is not None and "engine" not in options and "physics" in base.__dict__:
+                    model.__dict__["physics"] = base.physics  # the same fit (a cached_property's value): not redone
+                sim = model.simulation()
+            except Exception as err:  # noqa: BLE001 - not measured: counted as whichever says less
+                whole = _Outcome(failed=_reason(err))
+        answers: list[_Outcome | None] = []
         for program in programs:
             if program is None:
                 answers.append(None)
-                continue
-            try:
-                answers.append(format_answer(program.run(sim)) or "!")
-            except Exception:  # noqa: BLE001 - the answer does not survive this execution
-                answers.append("!")
+            elif whole is not None or sim is None:
+                answers.append(whole)
+            else:
+                try:
+                    answers.append(_Outcome(format_answer(program.run(sim)) or "INVALID"))
+                except Exception as err:  # noqa: BLE001 - not measured for this program
+                    answers.append(_Outcome(failed=_reason(err)))
         out[name] = answers
     return out
 
 
 def _scene_probabilities(scene: PerceivedScene | SceneModel, programs: Sequence[Program | None],
-                         answers: Sequence[str | None], samples: int, seed: int) -> list[float | None]:
-    """The probability of each answer over the readings of the scene (None where not computed)."""
+                         answers: Sequence[str | None], samples: int, seed: int
+                         ) -> tuple[list[float | None], str | None]:
+    """The probability of each answer over the readings of the scene (None where not computed), and why none was
+    computed where the distributions raised (None where they did not)."""
     from ..perception.distribution import answer_distributions
 
     valid = [i for i, p in enumerate(programs) if p is not None and answers[i] is not None]
     out: list[float | None] = [None] * len(programs)
+    if not valid:
+        return out, None
     try:
         dists = answer_distributions(scene, [programs[i] for i in valid], samples=samples,  # type: ignore[misc]
                                      seed=seed)
-    except Exception:  # noqa: BLE001 - not measured: the answers stand without it
-        return out
-    for i, d in zip(valid, dists):
-        out[i] = float(d.p(answers[i]))
-    return out
+        for i, d in zip(valid, dists):
+            out[i] = float(d.p(answers[i]))
+    except Exception as err:  # noqa: BLE001 - not measured: counted as the least probability it can have
+        return [None] * len(programs), _reason(err)
+    return out, None
+
+
+def _reading_floor(scene: PerceivedScene | SceneModel) -> float:
+    """The probability of the scene's most likely reading (the product of its factors' largest probabilities): the
+    least probability an answer that holds in that reading can have; 0 where it cannot be computed."""
+    from ..perception.distribution import scene_factors
+    from ..perception.world import SceneModel
+
+    try:
+        model = scene if isinstance(scene, SceneModel) else SceneModel(scene)
+        return float(math.prod(max(f.probabilities) for f in scene_factors(model)))
+    except Exception:  # noqa: BLE001 - nothing known: any probability
+        return 0.0
 
 
 def _least_attribute(scene: PerceivedScene) -> float:
@@ -147,7 +210,8 @@ def confidence_inputs(scene: PerceivedScene, questions: Sequence[Question], answ
                       samples: int = 64, seed: int = 0, base: SceneModel | None = None) -> list[dict[str, Any]]:
     """The inputs of each answer's confidence (see the module docstring), as JSON-ready dicts; ``samples`` and
     ``seed`` are those of the answer distributions (exact while the readings are few). ``base``: the model the
-    answers were computed on (``SceneModel(scene)``), whose physics and counterfactual runs are reused."""
+    answers were computed on (``SceneModel(scene)``), whose physics and counterfactual runs are reused. An input
+    that could not be measured is named in ``failed`` or ``unavailable`` with the reason (the module docstring)."""
     from ..question_parsing import question_to_program
 
     programs: list[Program | None] = []
@@ -161,7 +225,9 @@ def confidence_inputs(scene: PerceivedScene, questions: Sequence[Question], answ
             programs.append(None)
     texts = [a.answer for a in answers]
     alternatives = _alternative_answers(scene, programs, base)
-    scene_p = _scene_probabilities(base if base is not None else scene, programs, texts, samples, seed)
+    measured = base if base is not None else scene
+    scene_p, scene_failed = _scene_probabilities(measured, programs, texts, samples, seed)
+    floor = _reading_floor(measured) if scene_failed is not None else None
     meta = scene.meta or {}
     shared = {"mean_stray_px": float(meta.get("mean_stray_px", 0.0)),
               "max_stray_px": float(meta.get("max_stray_px", 0.0)),
@@ -185,7 +251,27 @@ def confidence_inputs(scene: PerceivedScene, questions: Sequence[Question], answ
         if program is not None:
             p = scene_p[i]
             record["scene_p"] = None if p is None else round(p, 6)
-            record["agree"] = {name: answers_[i] == a.answer for name, answers_ in alternatives.items()}
+            agree: dict[str, bool] = {}
+            failed: dict[str, str] = {}
+            unavailable: dict[str, str] = {}
+            for name, outcomes in alternatives.items():
+                outcome = outcomes[i]
+                if outcome is None:
+                    continue
+                if outcome.unavailable is not None:
+                    unavailable[name] = outcome.unavailable
+                elif outcome.failed is not None:
+                    failed[name] = outcome.failed
+                else:
+                    agree[name] = outcome.answer == a.answer
+            record["agree"] = agree
+            if scene_failed is not None:
+                failed["scene_p"] = scene_failed
+                record["scene_p_floor"] = round(floor or 0.0, 6)
+            if failed:
+                record["failed"] = failed
+            if unavailable:
+                record["unavailable"] = unavailable
         if a.votes and a.answer in a.votes:  # recorded, not yet a feature: no labelled voted answers were fitted
             record["vote_share"] = round(a.votes[a.answer] / sum(a.votes.values()), 6)
         out.append(record)
@@ -193,6 +279,19 @@ def confidence_inputs(scene: PerceivedScene, questions: Sequence[Question], answ
 
 
 # -- the model ---------------------------------------------------------------------------------------------------
+
+
+def _completions(inputs: Mapping[str, Any]) -> Iterator[dict[str, Any]]:
+    """``inputs`` with each of its ``failed`` inputs given each value it could have taken: an alternative agreeing
+    or differing, the scene probability 1 or its ``scene_p_floor`` (the model is monotone in each feature, so the
+    least confidence is at one of them). Just ``inputs`` where none failed."""
+    failed = inputs.get("failed") or {}
+    names = [n for n in failed if n in ALTERNATIVES]
+    probabilities = ((1.0, float(inputs.get("scene_p_floor") or 0.0)) if "scene_p" in failed
+                     else (inputs.get("scene_p"),))
+    for values in itertools.product((True, False), repeat=len(names)):
+        for p in probabilities:
+            yield {**inputs, "agree": {**(inputs.get("agree") or {}), **dict(zip(names, values))}, "scene_p": p}
 
 
 def _log1p(value: Any) -> float:
@@ -245,6 +344,27 @@ class ConfidenceModel:
         z = (x - np.array(self.mean)) / np.array(self.scale)
         return float(self.bias + z @ np.array(self.weights))
 
+    def agree_rate(self, name: str) -> float:
+        """The share of the fitting data's answers that agreed under alternative ``name`` (1 where it is not a
+        feature: then it does not matter)."""
+        feature = f"differs:{name}"
+        return 1.0 - self.mean[self.features.index(feature)] if feature in self.features else 1.0
+
+    def probability(self, inputs: Mapping[str, Any]) -> float:
+        """The model's probability for ``inputs``: the least over every value the ``failed`` inputs could have
+        taken, of the expectation over the ``unavailable`` alternatives' agreement at :meth:`agree_rate`."""
+        return min(self._expected(filled) for filled in _completions(inputs))
+
+    def _expected(self, inputs: Mapping[str, Any]) -> float:
+        missing = [n for n in (inputs.get("unavailable") or {}) if n in ALTERNATIVES]
+        total = 0.0
+        for values in itertools.product((True, False), repeat=len(missing)):
+            weight = math.prod(self.agree_rate(n) if v else 1.0 - self.agree_rate(n) for n, v in zip(missing, values))
+            if weight > 0.0:
+                z = self.logit({**inputs, "agree": {**(inputs.get("agree") or {}), **dict(zip(missing, values))}})
+                total += weight * (1.0 / (1.0 + math.exp(-z)) if z > -700 else 0.0)
+        return total
+
     def guess_rate(self, kind: str | None) -> float:
         """The probability that a fallback guess of answer type ``kind`` is right."""
         key = kind or "*"
@@ -263,8 +383,7 @@ class ConfidenceModel:
             return round(min(PREMISE_RATE, self.guess_rate(kind)) if warning else PREMISE_RATE, 6)
         if fallback or inputs is None or "agree" not in inputs:
             return round(self.guess_rate(kind), 6)
-        z = self.logit(inputs)
-        p = 1.0 / (1.0 + math.exp(-z)) if z > -700 else 0.0
+        p = self.probability(inputs)
         if warning:
             p = min(p, self.guess_rate(kind))
         return round(min(max(p, 0.0), 1.0), 6)
@@ -318,8 +437,9 @@ def fit_model(inputs: Sequence[Mapping[str, Any]], correct: Sequence[bool], fall
               l2: float = 1.0, meta: Mapping[str, Any] | None = None, drop: Sequence[str] = ()) -> ConfidenceModel:
     """A :class:`ConfidenceModel` fitted on labelled answers: the logistic model on the answers that are not
     fallbacks, the guess rates on those that are (two pseudo-answers per type, right at :data:`CHANCE`'s rate).
-    ``drop``: features left out (those whose name starts with one of them)."""
-    kept = [i for i, f in enumerate(fallbacks) if not f and "agree" in inputs[i]]
+    ``drop``: features left out (those whose name starts with one of them). Answers with an input that failed
+    (``failed``) are left out: their features are not all measured."""
+    kept = [i for i, f in enumerate(fallbacks) if not f and "agree" in inputs[i] and not inputs[i].get("failed")]
     names = tuple(f for f in feature_vector(inputs[kept[0]]) if not f.startswith(tuple(drop)))
     x = np.array([[feature_vector(inputs[i])[f] for f in names] for i in kept])
     y = np.array([float(correct[i]) for i in kept])
@@ -344,8 +464,6 @@ def with_confidence(scene: PerceivedScene, questions: Sequence[Question], answer
                     model: ConfidenceModel | None = None, samples: int = 64, seed: int = 0,
                     base: SceneModel | None = None) -> list[Answer]:
     """``answers`` with their confidence and its inputs (:func:`confidence_inputs`)."""
-    from dataclasses import replace
-
     model = model or default_model()
     out = []
     for a, inputs in zip(answers, confidence_inputs(scene, questions, answers, samples, seed, base)):
@@ -356,13 +474,12 @@ def with_confidence(scene: PerceivedScene, questions: Sequence[Question], answer
 
 def rescore(answer: Answer, model: ConfidenceModel | None = None) -> Answer:
     """``answer`` with its confidence computed again from its inputs (after its fallback or warning changed)."""
-    from dataclasses import replace
-
     model = model or default_model()
     return replace(answer, confidence=model.confidence(answer.confidence_inputs, answer.fallback or
                                                        answer.answer is None, answer.warning is not None,
                                                        answer.premise is not None))
 
 
-__all__ = ["ALTERNATIVES", "CHANCE", "MODEL_PATH", "ConfidenceModel", "answer_type", "confidence_inputs",
-           "default_model", "feature_vector", "fit_logistic", "fit_model", "rescore", "with_confidence"]
+__all__ = ["ALTERNATIVES", "CHANCE", "ENGINE_PACKAGES", "MODEL_PATH", "ConfidenceModel", "answer_type",
+           "confidence_inputs", "default_model", "engine_missing", "feature_vector", "fit_logistic", "fit_model",
+           "rescore", "with_confidence"]

@@ -54,7 +54,16 @@ from .track import (
     track,
     verify_shape,
 )
-from .video import Decoder, FrameRate, checked_rate, decode_video, frame_rate, steps_shown, timed_steps
+from .video import (
+    Decoder,
+    FrameRate,
+    checked_rate,
+    collect_unchecked,
+    decode_video,
+    frame_rate,
+    steps_shown,
+    timed_steps,
+)
 
 
 @dataclass
@@ -255,7 +264,8 @@ def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scen
     (:func:`~craft_dsl.reader.video.frame_rate`) unless ``fps`` or ``frame_steps`` state it, and so is the step its
     first frame shows unless ``frame_offset`` or ``frame_steps`` state it. Where the frames' times show frames
     missing inside the video (:func:`~craft_dsl.reader.video.timed_steps`), each frame is read at the step its time
-    shows (``frames_missing``, and ``meta["frames_missing"]``, ``meta["first_gap_s"]``). ``first_engine``: the
+    shows (``frames_missing``, and ``meta["frames_missing"]``, ``meta["first_gap_s"]``). What the file's probes
+    could not check (:func:`~craft_dsl.reader.video.not_checked`) is ``meta["unchecked"]``. ``first_engine``: the
     engine the video is known to come from (tried first, :func:`perceive_frames`)."""
     timings: dict[str, float] = {}
     t = time.perf_counter()
@@ -264,13 +274,15 @@ def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scen
     frames, picture = decoded.frames, decoded.picture
     timed = None
     rate: FrameRate | None = None
+    unchecked: list[str] = []  # what the file's probes could not check: every answer says it
     if fps is None and frame_steps is None:  # neither stated: measured
         timed = timed_steps(decoded.times)
         if timed is not None:  # frames missing inside the video: each frame read at the step its time shows
             frame_steps = timed.steps
             rate = FrameRate(timed.fps, "stated", f"the frames' times ({timed.missing} frames missing)")
         else:
-            rate = frame_rate(path, len(frames))
+            with collect_unchecked() as unchecked:
+                rate = frame_rate(path, len(frames))
             fps = rate.fps
     timings["decode"] = time.perf_counter() - t
     perception = perceive_frames(frames, scene, timings, engines, fps, frame_steps, rate, source_size=picture.side,
@@ -282,6 +294,8 @@ def perceive_video(path: str | os.PathLike[str], decoder: Decoder = "auto", scen
     if timed is not None:
         perception.frames_missing = timed.missing
         meta.update(frames_missing=timed.missing, first_gap_s=round(timed.first_gap, 3))
+    if unchecked:
+        meta["unchecked"] = list(unchecked)
     if meta:
         perception.scene = perception.scene.model_copy(update={"meta": {**(perception.scene.meta or {}), **meta}})
     return perception

@@ -24,6 +24,11 @@ filter graph; the ``ffmpeg`` decoder's ``-vf``). Where a container's frame times
 out), each frame is read at the step its time shows (:func:`timed_steps`); PyAV gives the times, the ``ffmpeg``
 decoder and raw MPEG streams none.
 
+A probe of the file that fails (a container that cannot be opened again to state its frame count or rate) does
+not stop the reading: it says what could not be checked (:func:`not_checked`), into the innermost
+:func:`collect_unchecked` (the reader's perceived scene keeps them, ``meta["unchecked"]``, and every answer says
+them), else as a :class:`VideoCheckWarning`.
+
 Rates within 0.2 % of a whole number are that number (NTSC's 59.94 is 60). A rate that does not divide 60 (25,
 24 fps) maps each frame time to the nearest step, as the renderer does. Rates above 60 fps are refused
 (:class:`~craft_dsl.errors.ReaderError`): the simulation has 60 states per second, so such a video repeats frames;
@@ -38,7 +43,10 @@ import numbers
 import os
 import re
 import subprocess
+import warnings
 from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
@@ -53,6 +61,34 @@ from .picture import PICTURE_FRAMES, Picture, find_picture
 
 Decoder = Literal["auto", "pyav", "ffmpeg"]
 DECODERS: tuple[str, ...] = ("auto", "pyav", "ffmpeg")
+
+
+class VideoCheckWarning(UserWarning):
+    """A check of a video that could not be made: what was not checked, and why (the reading goes on)."""
+
+
+_UNCHECKED: ContextVar[list[str] | None] = ContextVar("craft_dsl_reader_unchecked", default=None)
+
+
+def not_checked(message: str) -> None:
+    """Say that something about a video could not be checked: into the innermost :func:`collect_unchecked`, else
+    as a :class:`VideoCheckWarning`."""
+    found = _UNCHECKED.get()
+    if found is None:
+        warnings.warn(message, VideoCheckWarning, stacklevel=3)
+    else:
+        found.append(message)
+
+
+@contextmanager
+def collect_unchecked() -> Iterator[list[str]]:
+    """The messages :func:`not_checked` is given inside the block, in order (none shown as warnings)."""
+    found: list[str] = []
+    token = _UNCHECKED.set(found)
+    try:
+        yield found
+    finally:
+        _UNCHECKED.reset(token)
 
 
 def have_pyav() -> bool:
@@ -326,7 +362,8 @@ def incomplete(path: str | os.PathLike[str], frames: int) -> str | None:
     so): an MPEG-1 elementary stream that ends without its end code was cut short; a container that states its
     frame count and holds fewer decodable frames lost some. For a container of fewer than 60 fps a count above the
     stated one is taken as frames at 60 fps, i.e. the steps the decoded frames show (what a perceived scene's
-    ``video.frames`` holds): the file lost frames when they show fewer steps than its stated frames do."""
+    ``video.frames`` holds): the file lost frames when they show fewer steps than its stated frames do. A container
+    that cannot be opened again to state its count is not evidence: :func:`not_checked` says so, and None."""
     target = Path(path)
     with target.open("rb") as f:
         head = f.read(4)
@@ -345,7 +382,9 @@ def incomplete(path: str | os.PathLike[str], frames: int) -> str | None:
             stream = container.streams.video[0]
             stated = int(stream.frames or 0)
             rate = float(stream.average_rate) if stream.average_rate else float(SIM_FPS)
-    except Exception:  # noqa: BLE001 - decoding already succeeded; a container that cannot say is not evidence
+    except Exception as err:  # noqa: BLE001 - decoding already succeeded; a container that cannot say is not evidence
+        not_checked(f"{target.name}: whether frames were lost could not be checked: its container could not be "
+                    f"opened again to state its frame count ({type(err).__name__}: {err})")
         return None
     if stated and frames < stated:
         return f"{frames} of the {stated} frames its container states could be decoded"
@@ -462,7 +501,8 @@ def mpeg_header_rate(path: str | os.PathLike[str]) -> Fraction | None:
 
 
 def _container_rate(path: Path) -> Fraction | None:
-    """The video stream's stated rate: PyAV's average rate, else its base rate; ffmpeg's report without PyAV."""
+    """The video stream's stated rate: PyAV's average rate, else its base rate; ffmpeg's report without PyAV. A file
+    PyAV cannot open to probe states none (:func:`not_checked` says so)."""
     if have_pyav():
         import av
 
@@ -472,7 +512,9 @@ def _container_rate(path: Path) -> Fraction | None:
                 for rate in (stream.average_rate, stream.base_rate):
                     if rate is not None and rate > 0:
                         return Fraction(rate.numerator, rate.denominator)
-        except Exception:  # noqa: BLE001 - a file PyAV cannot probe states nothing
+        except Exception as err:  # noqa: BLE001 - a file PyAV cannot probe states nothing
+            not_checked(f"{path.name}: the frame rate its container states could not be read ({type(err).__name__}: "
+                        f"{err}): the rate is inferred from the frame count")
             return None
         return None
     import imageio_ffmpeg

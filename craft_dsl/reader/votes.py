@@ -19,10 +19,10 @@ from typing import TYPE_CHECKING
 from ..errors import CraftError
 from ..program import Program, parse
 from ..registry import REGISTRY
+from .records import Answer, format_answer
 
 if TYPE_CHECKING:
     from ..perception.world import SceneModel
-    from .answer import Answer
 
 #: Perturbed replays whose answers vote with the reader's own on a counterfactual question.
 VOTES = 6
@@ -63,8 +63,6 @@ def vote_counterfactuals(model: SceneModel, answers: Sequence[Answer], votes: in
     being replayed once the votes left cannot change its majority (most are stable: the first three replays agree
     with its own answer), so the answers are those of all ``votes`` replays at about half their cost. Answers that are
     guesses, premises or distribution modes are left as they are; each voted answer records the ``votes`` cast."""
-    from .answer import format_answer
-
     if votes <= 0:
         return list(answers)
     programs: dict[int, Program] = {}

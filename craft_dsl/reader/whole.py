@@ -24,7 +24,7 @@ import numpy as np
 
 from ..render.raster import SIM_FPS
 from .perceive import Perception
-from .video import RUN_STEPS, incomplete
+from .video import RUN_STEPS, collect_unchecked, incomplete
 
 #: Pixels: a body whose run, fitted from the start, is further than this from its track, on average over the first
 #: fit's frames, does not start where the layout starts it.
@@ -72,9 +72,12 @@ def frames_missing(missing: int, first_gap_s: float | None = None) -> str | None
 
 def why_not_whole(path: str, perception: Perception, steps: int = RUN_STEPS) -> str | None:
     """The reasons (joined) why the video at ``path``, read as ``perception``, is not a whole run of ``steps``
-    steps; None when nothing says so."""
+    steps; None when nothing says so. Whether the file lost frames, where it cannot be checked
+    (:func:`~craft_dsl.reader.video.not_checked`), is a reason too: the answers' confidences can only fall."""
     # a file cut short is cut short as a run too: the file's reason says which
-    length = incomplete(path, perception.scene.video.frames) or cut_short(perception.frame_steps, steps)
+    with collect_unchecked() as unchecked:  # a check that could not be made counts as failed: the worst case
+        length = incomplete(path, perception.scene.video.frames) or cut_short(perception.frame_steps, steps)
     found = [r for r in (length, frames_missing(perception.frames_missing, perception.scene.meta.get("first_gap_s")),
                          cut_at_start(perception.reconstruction.start_px)) if r is not None]
+    found += [f"it may not be ({message})" for message in unchecked]
     return "; ".join(found) if found else None
