@@ -10,7 +10,8 @@ few tasks per worker are queued at any time, so an interruption drops little wor
   watchdog thread notices the parent is gone within a second), and a worker that dies is replaced, its video
   reported as failed.
 * :class:`DaskExecutor` (the ``dask`` extra): tasks submitted to a ``distributed`` scheduler
-  (``tcp://HOST:PORT``); the scheduler re-runs the tasks of a worker that dies on another worker.
+  (``tcp://HOST:PORT``) by :mod:`craft_dsl.cluster`, which ``read --executor dask`` shares; the scheduler re-runs
+  the tasks of a worker that dies on another worker.
 """
 
 from __future__ import annotations
@@ -19,9 +20,10 @@ from collections import deque
 from collections.abc import Callable, Iterable
 from typing import Any, Protocol
 
-from ..errors import CraftError, MissingExtraError
+from ..cluster import cluster_client, import_distributed, run_on_cluster
+from ..errors import CraftError
 from ..parallel import usable_cpu_count
-from ..pool import QUEUED_PER_WORKER, describe, run_pool
+from ..pool import describe, run_pool
 from .instance import InstanceResult, InstanceTask, run_instance
 
 OnResult = Callable[[InstanceResult], None]
@@ -91,64 +93,28 @@ class LocalExecutor:
 
 class DaskExecutor:
     """Tasks on a Dask distributed cluster: ``scheduler`` is its address (``tcp://HOST:PORT``) or a
-    ``distributed.Client``. The workers need craft_dsl installed (same version) and one thread each
-    (``dask worker ADDRESS --nthreads 1``: the physics is pure Python and holds the GIL)."""
+    ``distributed.Client`` (:mod:`craft_dsl.cluster`). The workers need craft_dsl installed (same version) and one
+    thread each (``dask worker ADDRESS --nthreads 1``: the physics is pure Python and holds the GIL)."""
 
     def __init__(self, scheduler: Any, timeout: float = 30.0) -> None:
-        try:
-            import distributed
-        except ImportError:
-            raise MissingExtraError("--executor dask", "dask", "Dask's distributed scheduler") from None
-        self._distributed = distributed
+        import_distributed()
         self._scheduler = scheduler
         self._timeout = timeout
         self.description = f"the Dask cluster at {scheduler}"
         self.spare_cores = False  # a cluster's workers are started one per core
 
-    def _client(self) -> tuple[Any, bool]:
-        if isinstance(self._scheduler, self._distributed.Client):
-            return self._scheduler, False
-        try:
-            return self._distributed.Client(self._scheduler, timeout=self._timeout, set_as_default=False), True
-        except (OSError, TimeoutError) as err:
-            raise CraftError(f"--scheduler {self._scheduler}: cannot reach a Dask scheduler there ({err}); start "
-                             "one with 'dask scheduler' and workers with 'dask worker ADDRESS --nthreads 1'") from None
-
     def run(self, tasks: Iterable[InstanceTask], on_result: OnResult) -> list[Failure]:
-        client, owned = self._client()
-        todo = deque(tasks)
+        by_id = {task.instance_id: task for task in tasks}
         failures: list[Failure] = []
-        futures: dict[Any, InstanceTask] = {}
-        try:
-            slots = max(1, sum(client.nthreads().values()) or 1) * (1 + QUEUED_PER_WORKER)
 
-            def submit() -> Any:
-                task = todo.popleft()
-                key = f"craft-dsl-instance-{task.seed}-{task.instance_id}-{int(task.questions)}{int(task.media)}"
-                fut = client.submit(run_instance, task, key=key, pure=False, retries=2)
-                futures[fut] = task
-                return fut
+        def key(instance_id: int) -> str:
+            task = by_id[instance_id]
+            return f"craft-dsl-instance-{task.seed}-{task.instance_id}-{int(task.questions)}{int(task.media)}"
 
-            first = [submit() for _ in range(min(slots, len(todo)))]
-            if not first:
-                return failures
-            pending = self._distributed.as_completed(first, loop=client.loop)
-            for fut in pending:
-                task = futures.pop(fut)
-                try:
-                    result = fut.result()
-                except Exception as err:  # noqa: BLE001 - reported after the other instances ran
-                    failures.append(_failure(task.instance_id, err))
-                else:
-                    on_result(result)
-                fut.release()
-                if todo:
-                    pending.add(submit())
-        finally:
-            if futures:
-                client.cancel(list(futures), force=True)
-            if owned:
-                client.close(timeout=5)
+        with cluster_client(self._scheduler, self._timeout) as client:
+            run_on_cluster(client, run_instance, [(i, (task,)) for i, task in by_id.items()],
+                           lambda _key, result: on_result(result),
+                           lambda i, message: failures.append((i, message)), key=key)
         return sorted(failures)
 
 

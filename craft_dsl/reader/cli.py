@@ -4,9 +4,9 @@ Predictions go to ``--out`` (``{"<video_index>_<question_index>": answer}``, wha
 only, as published predictions files are); each answer's confidence goes to ``--details``. Each
 finished video's answers are first made durable in a journal beside it (:mod:`craft_dsl.reader.runs`); ``--out``
 and ``--details`` are written atomically from the journal once every video is done, the same bytes for any
-``--workers`` and whether or not the run was interrupted and resumed. Progress and messages go to stderr. A video
-that cannot be read, or whose reading raises, is reported (``error: ...``), its questions are left out, the others
-are still written, and the exit code is 2.
+``--workers``, for local processes or a Dask cluster (``--executor dask``), and whether or not the run was
+interrupted and resumed. Progress and messages go to stderr. A video that cannot be read, or whose reading raises,
+is reported (``error: ...``), its questions are left out, the others are still written, and the exit code is 2.
 """
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ import sys
 import time
 from collections import defaultdict
 from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager, ExitStack, nullcontext
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -112,15 +113,32 @@ def _resumable(record: dict[str, Any], perceived: str | None) -> bool:
     return record.get("perceived") == text_digest(text)
 
 
+def _cluster(scheduler: str | None) -> AbstractContextManager[Any]:
+    """The Dask client of ``--scheduler`` for the block (:mod:`craft_dsl.cluster`), or None: local processes."""
+    if scheduler is None:
+        return nullcontext()
+    from ..cluster import cluster_client
+
+    return cluster_client(scheduler)
+
+
 def cmd_read(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from .answer import find_videos, read_questions
-    from .runs import Journal, journal_path, run_header, run_tasks, text_digest
-
+    from .runs import Journal, check_workers, journal_path, run_header, run_tasks, text_digest
     if not args.videos and not args.video_map:
         raise ReaderError("give the videos: --videos FOLDER_OR_FILE ... and/or --video-map FILE")
     _check_outputs(args)
+    if args.executor == "dask":  # the extra and the options, before anything is read
+        from ..cluster import import_distributed
+
+        import_distributed()
+        if not args.scheduler:
+            raise ReaderError("--executor dask needs --scheduler tcp://HOST:PORT (the address 'dask scheduler' "
+                              "prints); on one machine, --workers N reads as many videos at once without Dask")
+    elif args.scheduler:
+        raise ReaderError("--scheduler is for --executor dask")
     from .reconstruct import reader_engines
 
     if args.engine != "auto" and args.engine not in reader_engines():
@@ -141,7 +159,18 @@ def cmd_read(args: argparse.Namespace) -> int:
     def report(message: str) -> None:
         tqdm.write(message, file=sys.stderr)
 
-    with Journal.open(journal_path(args.out), header) as journal:
+    with ExitStack() as stack:
+        # the cluster first: a scheduler that does not answer, or workers that cannot read the videos, leave no
+        # journal behind
+        client = stack.enter_context(_cluster(args.scheduler if args.executor == "dask" else None))
+        if client is not None:
+            videos = {v: path.absolute() for v, path in videos.items()}  # the workers' working folder is not ours
+            workers = check_workers(client, videos[order[0]]) if order else 0
+            if not args.quiet:
+                report(f"reading on the Dask cluster at {args.scheduler}: " + (
+                    f"{workers} worker{'s' if workers > 1 else ''}" if workers else "no worker has joined yet; the "
+                    "videos wait for them"))
+        journal = stack.enter_context(Journal.open(journal_path(args.out), header))
         if journal.dropped_line is not None and not args.quiet:
             report(f"{journal.path}: line {journal.dropped_line} was cut short (the run was stopped while writing "
                    "it): dropped, its video is read again")
@@ -177,8 +206,12 @@ def cmd_read(args: argparse.Namespace) -> int:
         bar = tqdm(total=len(order), initial=len(done), unit="video", desc="reading", disable=args.quiet,
                    file=sys.stderr, dynamic_ncols=True)
         try:
-            # one video left is read here: no process to start
-            run_tasks(read_video, jobs, min(args.workers, len(jobs)), finished, crashed)
+            if client is not None:
+                from ..cluster import run_on_cluster
+
+                run_on_cluster(client, read_video, jobs, finished, crashed)
+            else:  # one video left is read here: no process to start
+                run_tasks(read_video, jobs, min(args.workers, len(jobs)), finished, crashed)
         finally:
             bar.close()
         predictions: dict[str, str | None] = {}
@@ -248,6 +281,12 @@ def add_commands(sub: Any) -> None:
                    help='predictions JSON: {"<video_index>_<question_index>": answer}; until it is written, '
                         '<out>.partial.jsonl journals the finished videos, and the same command resumes from it')
     add_workers_option(p, "worker processes (one video at a time each); the output is identical for any number")
+    p.add_argument("--executor", default="local", choices=("local", "dask"),
+                   help="where the videos are read: local worker processes (local, the default), or a Dask cluster "
+                        "(dask: needs --scheduler and pip install 'craft-dsl[dask]'; its workers read the videos at "
+                        "the paths found here); the output and the journal are the same")
+    p.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                   help="with --executor dask: the address of the Dask scheduler (default: none)")
     p.add_argument("--perceived", help="also write each video's PerceivedScene JSON (<id6>.json) into this folder "
                                        "(default: none)")
     p.add_argument("--details", help="also write one JSON line per question (answer, confidence: the probability "

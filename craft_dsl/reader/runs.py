@@ -1,5 +1,5 @@
 """Runs of ``craft-dsl read`` that survive interruption: a journal of the finished videos, and worker processes that
-stop at once on Ctrl-C.
+stop at once on Ctrl-C (or a Dask cluster's workers, :func:`check_workers`, fed by :mod:`craft_dsl.cluster`).
 
 The journal (``<out>.partial.jsonl``, beside ``--out``) is JSON Lines: a header naming the run's inputs (digests of
 the questions and of the resolved video list, and the options that change answers), then one record per finished
@@ -257,6 +257,36 @@ def ctrl_c_outside_callbacks(retry_s: float = 0.02) -> Iterator[None]:
         signal.signal(signal.SIGINT, previous)
 
 
+def _worker_view(path: str) -> tuple[bool, str]:
+    """On a cluster's worker: whether it sees the file ``path``, and its craft_dsl's version."""
+    from .. import __version__
+
+    return os.path.isfile(path), __version__
+
+
+def check_workers(client: Any, path: str | os.PathLike[str]) -> int:
+    """Refuse a Dask cluster (``client``'s) whose workers cannot read the video ``path`` (the workers read the
+    videos where this machine finds them: a shared file system, mounted at the same path) or run another version of
+    craft_dsl (whose answers may differ); the number of workers checked (0: none has joined yet)."""
+    from .. import __version__
+
+    try:
+        views: dict[str, tuple[bool, str]] = client.run(_worker_view, os.fspath(path))
+    except Exception as err:  # noqa: BLE001 - a worker without craft_dsl cannot unpickle the check
+        raise ReaderError(f"the Dask workers cannot run craft_dsl ({describe(err)}); install craft-dsl "
+                          f"{__version__} where they run") from None
+    blind = sorted(worker for worker, (seen, _version) in views.items() if not seen)
+    if blind:
+        raise ReaderError(f"{path}: the Dask worker{'s' if len(blind) > 1 else ''} {', '.join(blind)} cannot read "
+                          "it; the workers read the videos at the paths this machine finds them at: give --videos "
+                          "on a file system the workers mount at the same path")
+    other = sorted(f"{worker} ({version})" for worker, (_seen, version) in views.items() if version != __version__)
+    if other:
+        raise ReaderError(f"the Dask workers {', '.join(other)} run another craft_dsl than this one "
+                          f"({__version__}); install the same version on every worker")
+    return len(views)
+
+
 def run_tasks(fn: Callable[..., Any], tasks: Sequence[Task], workers: int, on_result: Callable[[int, Any], None],
               on_failure: Callable[[int, str], None]) -> None:
     """Run ``fn(*args)`` for each ``(key, args)`` of ``tasks``; ``on_result(key, value)``, or ``on_failure(key,
@@ -278,5 +308,5 @@ def run_tasks(fn: Callable[..., Any], tasks: Sequence[Task], workers: int, on_re
     run_pool(fn, tasks, workers, on_result, on_failure, name="craft-dsl read worker")
 
 
-__all__ = ["JOURNAL_SUFFIX", "Journal", "ctrl_c_outside_callbacks", "journal_path", "run_header", "run_tasks",
-           "text_digest"]
+__all__ = ["JOURNAL_SUFFIX", "Journal", "check_workers", "ctrl_c_outside_callbacks", "journal_path", "run_header",
+           "run_tasks", "text_digest"]
