@@ -197,7 +197,7 @@ def build_parser() -> argparse.ArgumentParser:
     for name in ("craft_dsl.demo", "craft_dsl.physics.cli", "craft_dsl.render.cli", "craft_dsl.verify.cli",
                  "craft_dsl.dataset.cli", "craft_dsl.oracle.cli", "craft_dsl.ask_cli", "craft_dsl.dataset.hf_cli",
                  "craft_dsl.dataset.stats_cli", "craft_dsl.viewer.cli", "craft_dsl.perception.cli",
-                 "craft_dsl.reader.cli", "craft_dsl.harness.cli"):
+                 "craft_dsl.reader.cli", "craft_dsl.harness.cli", "craft_dsl.dataset.heldout"):
         try:
             module = importlib.import_module(name)
         except ImportError as err:
