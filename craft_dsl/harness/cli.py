@@ -26,7 +26,8 @@ def cmd_export_lmms_eval(args: argparse.Namespace) -> int:
         print(f"note: no task for {part}", file=sys.stderr)
     tasks = ", ".join(f"{t} ({n} questions)" for t, n in result.tasks.items())
     print(f"wrote {result.out}: group {args.name}, tasks {tasks}", file=sys.stderr)
-    print(f"run: lmms-eval --include_path {result.out} --tasks {args.name} --model ...", file=sys.stderr)
+    print(f"run: lmms-eval --include_path {result.out} --tasks {args.name} --model ... (--model craft_reader: "
+          "craft-dsl's video reader)", file=sys.stderr)
     return 0
 
 
