@@ -49,6 +49,7 @@ from reader_calibration import reliability
 
 from craft_dsl.cli import main as cli_main
 from craft_dsl.dataset.folder import DatasetFolder
+from craft_dsl.dataset.samplers import LEGACY_SAMPLER, ORIGINAL_SAMPLER, start_state
 from craft_dsl.errors import CraftError
 from craft_dsl.perception import SceneModel, export_perceived
 from craft_dsl.physics import simulate
@@ -63,7 +64,7 @@ from craft_dsl.render.raster import world_to_pixel
 from craft_dsl.verify import read_minimal, read_split, score
 from craft_dsl.verify.answers import answers_agree
 from craft_dsl.verify.categories import family_of
-from craft_dsl.vocabulary import DEFAULT_ENGINE, LEGACY_DEFAULT_ENGINE
+from craft_dsl.vocabulary import DEFAULT_ENGINE, LEGACY_DEFAULT_ENGINE, ORIGINAL_ENGINE
 from craft_dsl.world import DEFAULT_STEPS
 
 STEP_TOLERANCE = 2
@@ -123,8 +124,7 @@ def run_video(path: str, questions: list[Question], stats: dict[str, Any], truth
     answers = answer_questions(perception.scene, questions, votes=votes)
     answer_s = time.perf_counter() - t
     # -- ground truth (the benchmark's side) -------------------------------------------------------------------
-    sim = simulate(stats["scene"], seed=stats["simulation_seed"], steps=stats.get("steps", DEFAULT_STEPS),
-                   engine=stats["engine"])
+    sim = true_simulation(stats)
     rec = perception.reconstruction
     true_world = sim.world_spec
     true_triples = {(b.shape, b.color, b.size): b.uid for b in true_world.bodies if b.dynamic}
@@ -196,11 +196,25 @@ class HeldOutQuestions(NamedTuple):
     by_video: dict[int, list[Question]]  # video index -> its test questions, text only
 
 
-def generation_settings(root: Path) -> tuple[str, int]:
-    """The engine and the run length (steps) the dataset at ``root`` was generated with, from its
-    ``generation_config.json`` (pymunk and CRAFT's 600 steps for a dataset without one)."""
+def true_simulation(stats: dict[str, Any]) -> Any:
+    """The video's simulation as the dataset made it: its start state drawn by the dataset's sampler (the original's
+    own, a revision of the layouts), run by its engine (as the original pipeline, where both are the original)."""
+    scene, seed, steps = stats["scene"], stats["simulation_seed"], stats.get("steps", DEFAULT_STEPS)
+    sampler = stats.get("sampler", LEGACY_SAMPLER)
+    if sampler == ORIGINAL_SAMPLER and stats["engine"] == ORIGINAL_ENGINE:
+        from craft_dsl.physics.original_sampler import simulate_fresh
+
+        return simulate_fresh(scene, seed, steps)
+    return simulate(start_state(scene, seed, sampler), seed=seed, steps=steps, engine=stats["engine"])
+
+
+def generation_settings(root: Path) -> tuple[str, int, str]:
+    """The engine, the run length (steps) and the sampler the dataset at ``root`` was generated with, from its
+    ``generation_config.json`` (pymunk, CRAFT's 600 steps and revision 1 of the layouts for a dataset without
+    one)."""
     config = DatasetFolder(root).config or {}
-    return str(config.get("engine", LEGACY_DEFAULT_ENGINE)), int(config.get("steps", DEFAULT_STEPS))
+    return (str(config.get("engine", LEGACY_DEFAULT_ENGINE)), int(config.get("steps", DEFAULT_STEPS)),
+            str(config.get("sampler", LEGACY_SAMPLER)))
 
 
 def held_out_questions(root: Path, all_questions: bool = False) -> HeldOutQuestions:
@@ -272,12 +286,12 @@ def main() -> None:
     if args.decoders:
         compare_decoders([paths[v] for v in videos[: args.decoders]])
         return
-    engine, steps = generation_settings(root)
+    engine, steps, sampler = generation_settings(root)
     jobs = []
     for v in videos:
         stats = json.loads((root / "questions" / f"qa_{v:06d}.json").read_text())["stats"]
         stats = {"scene": stats["scene"], "simulation_seed": stats["simulation_seed"], "engine": engine,
-                 "steps": steps, "template_ids": {q.key: template[q.key] for q in by_video[v]}}
+                 "steps": steps, "sampler": sampler, "template_ids": {q.key: template[q.key] for q in by_video[v]}}
         jobs.append((str(paths[v]), by_video[v], stats, {q.key: truth[q.key] for q in by_video[v]}))
     load_before = os.getloadavg()
     t0 = time.perf_counter()

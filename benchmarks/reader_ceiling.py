@@ -138,7 +138,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--json", help="write every row's answers here")
     args = parser.parse_args(argv)
     root = Path(args.dataset)
-    own, steps = generation_settings(root)
+    own, steps, _ = generation_settings(root)
     engines = [own] + [e for e in args.engines.split(",") if e and e != own]
     tests = held_out_questions(root)
     videos = sorted(tests.by_video)[: args.limit] if args.limit else sorted(tests.by_video)

@@ -9,12 +9,15 @@ dynamic attributes, in the sampler's creation order, so uniqueIDs are the simula
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
 from ..scenes import Choice, Const, Expr, Quantity, SceneLayout, Uniform, load_scene
 from ..world import BodySpec, WorldSpec, assign_uids, make_dynamic, make_static
+
+_DYNAMIC_PATH = re.compile(r"^dynamic\[(\d+)\](.*)$")
 
 #: (shape, colour, size) of one dynamic object.
 Attributes = tuple[str, str, str]
@@ -39,9 +42,20 @@ def _scalar(q: Const | Expr, variables: Mapping[str, float]) -> float:
 class LayoutModel:
     """The layout of scene ``scene_id`` as a function of its draws."""
 
-    def __init__(self, scene_id: int) -> None:
+    def __init__(self, scene_id: int, absent: tuple[int, ...] = ()) -> None:
         self.scene_id = scene_id
-        self.layout: SceneLayout = load_scene(scene_id)
+        layout = load_scene(scene_id)
+        bad = [i for i in absent if not 0 <= i < len(layout.dynamic) or layout.dynamic[i].on_duplicate != "drop"]
+        if bad:
+            raise ValueError(f"scene {scene_id}: slots {bad} cannot be absent (only a slot that drops its object on "
+                             "a duplicate triple can)")
+        #: Dynamic slots of the layout file left out: slots that drop their object (``on_duplicate: "drop"``) and
+        #: whose object the video does not show. The remaining slots are renumbered in file order.
+        self.absent = absent
+        if absent:
+            layout = layout.model_copy(update={"dynamic": tuple(d for i, d in enumerate(layout.dynamic)
+                                                                if i not in absent)})
+        self.layout: SceneLayout = layout
         self._statics_cache: dict[tuple[tuple[str, float], ...], tuple[BodySpec, ...]] = {}
 
     @cached_property
@@ -156,6 +170,38 @@ class LayoutModel:
                                        (f[f"dynamic[{i}].velocity[0]"], f[f"dynamic[{i}].velocity[1]"])))
         return WorldSpec(bodies=assign_uids(bodies), scene_id=self.scene_id)
 
+    def renumbered(self, values: Mapping[str, float]) -> dict[str, float]:
+        """Draw values keyed by the full layout's paths, keyed by this model's (the absent slots' left out, the
+        other dynamic slots renumbered)."""
+        if not self.absent:
+            return dict(values)
+        new_index: dict[int, int] = {}
+        for old in range(len(self.layout.dynamic) + len(self.absent)):
+            if old not in self.absent:
+                new_index[old] = len(new_index)
+        out: dict[str, float] = {}
+        for path, v in values.items():
+            m = _DYNAMIC_PATH.match(path)
+            if m is None:
+                out[path] = v
+            elif int(m.group(1)) in new_index:
+                out[f"dynamic[{new_index[int(m.group(1))]}]{m.group(2)}"] = v
+        return out
+
+    def fixed_start(self, slot: int, values: Mapping[str, float]) -> tuple[float, float] | None:
+        """Where dynamic slot ``slot`` starts, where the draws in ``values`` decide it (a constant, or an expression
+        of those draws' variables); None where it depends on a draw of its own or one not in ``values``."""
+        known = {path.removeprefix("variables."): v for path, v in values.items() if path.startswith("variables.")}
+        out = []
+        for q in self.layout.dynamic[slot].position:
+            if isinstance(q, Const):
+                out.append(q.value)
+            elif isinstance(q, Expr) and set(q.names) <= set(known):
+                out.append(q.evaluate(known))
+            else:
+                return None
+        return out[0], out[1]
+
     def slot_allows(self, slot: int, attributes: Attributes) -> bool:
         """Whether dynamic slot ``slot`` can hold an object with these (shape, colour, size)."""
         s = self.layout.dynamic[slot]
@@ -173,5 +219,6 @@ def _names(q: Quantity) -> tuple[str, ...]:
 
 
 @lru_cache(maxsize=32)
-def layout_model(scene_id: int) -> LayoutModel:
-    return LayoutModel(scene_id)
+def layout_model(scene_id: int, absent: tuple[int, ...] = ()) -> LayoutModel:
+    """The :class:`LayoutModel` of a built-in scene, less the ``absent`` dynamic slots (cached)."""
+    return LayoutModel(scene_id, absent)

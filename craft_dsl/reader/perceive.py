@@ -16,10 +16,11 @@ at 60 fps (one frame per step: events to the step) whatever the video's rate.
 
 from __future__ import annotations
 
+import math
 import os
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -27,12 +28,12 @@ import numpy as np
 from ..errors import ReaderError
 from ..perception.export import export_perceived
 from ..perception.schema import PerceivedScene
-from ..render.raster import DEFAULT_SIZE, static_layer
+from ..render.raster import DEFAULT_SIZE, static_layer, world_to_pixel
 from ..world import WorldSpec
 from .detect import blobs, grid_floor, grid_labels, grid_rims
 from .ending import run_end, scene_moving_at_end
 from .layout import StaticFit, fit_layout
-from .layout_model import layout_model
+from .layout_model import LayoutModel, layout_model
 from .picture import Picture
 from .reconstruct import Reconstruction, fit_frames, reader_engines, reconstruct_best, slot_uid, start_frames
 from .timing import frame_offset as measure_offset
@@ -135,7 +136,12 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     background = static_layer(WorldSpec(bodies=layout.statics), frames.shape[1])
     times["layout"] = time.perf_counter() - t
     t = time.perf_counter()
-    objects = detect_objects(frames, background, len(model.layout.dynamic), rows, source_size)
+    tracks = find_tracks(frames, background, rows, source_size)
+    absent = absent_slots(model, layout.values, tracks, frames.shape[1])
+    if absent:  # a slot the original leaves empty on a duplicate triple (scene 7's last), and the video shows empty
+        model = layout_model(layout.scene, absent)
+        layout = replace(layout, values=model.renumbered(layout.values))
+    objects = choose_tracks(tracks, len(model.layout.dynamic), frames, rows)
     pair_twins(objects)
     relink_merges(objects, frames, background)
     for obj in objects:
@@ -178,6 +184,12 @@ def detect_objects(frames: np.ndarray, background: np.ndarray, count: int | None
     """The tracks of the ``count`` most substantial bodies in ``frames`` (over the static layer ``background``;
     ``rows``: the step of each frame), each marked with the size the video was drawn at (``source_size``) where it
     was rescaled to the frames' size (None: read at its own size)."""
+    return choose_tracks(find_tracks(frames, background, rows, source_size), count, frames, rows)
+
+
+def find_tracks(frames: np.ndarray, background: np.ndarray, rows: np.ndarray,
+                source_size: int | None = None) -> list[TrackedObject]:
+    """Every track of a body colour in ``frames`` (see :func:`detect_objects`), before the bodies are chosen."""
     drawn_at = source_size if source_size is not None and source_size != frames.shape[1] else None
     found = blobs(grid_labels(frames, background, soft_source(drawn_at)), grid_rims(background),
                   grid_floor(background))
@@ -185,9 +197,42 @@ def detect_objects(frames: np.ndarray, background: np.ndarray, count: int | None
     for obj in tracks:
         obj.blobs = drop_strays(obj.blobs, rows)
         obj.source_size = drawn_at
+    return tracks
+
+
+def choose_tracks(tracks: list[TrackedObject], count: int | None, frames: np.ndarray,
+                  rows: np.ndarray) -> list[TrackedObject]:
+    """The ``count`` most substantial of ``tracks`` (all where None), riders dropped."""
     chosen = select_objects(tracks, count, frames)
     drop_riding(chosen, rows)
     return chosen
+
+
+#: How near (pixels of a 256-pixel frame) a body seen in the first frames must be to a slot's start for the slot
+#: to count as present: under a small body's radius, well under the distance between two slots' starts.
+PRESENT_RADIUS_PX = 12.0
+#: The first frames in which a slot's body must be seen (a body at rest is seen from the first).
+PRESENT_FRAMES = 3
+
+
+def absent_slots(model: LayoutModel, values: Mapping[str, float], tracks: Sequence[TrackedObject],
+                 size: int) -> tuple[int, ...]:
+    """The slots that drop their object on a duplicate triple (``on_duplicate: "drop"``) and whose start no
+    track shows in the first frames. A slot whose start is not fixed by the static draws ``values`` counts as
+    present."""
+    scale = size / DEFAULT_SIZE
+    absent = []
+    for i, slot in enumerate(model.layout.dynamic):
+        start = model.fixed_start(i, values) if slot.on_duplicate == "drop" else None
+        if start is None:
+            continue
+        x, y = world_to_pixel(*start, size)
+        near = any(b is not None and b.frame < PRESENT_FRAMES
+                   and math.hypot(b.x - x, b.y - y) <= PRESENT_RADIUS_PX * scale
+                   for obj in tracks for b in obj.blobs[:PRESENT_FRAMES])
+        if not near:
+            absent.append(i)
+    return tuple(absent)
 
 
 def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: StaticFit,
