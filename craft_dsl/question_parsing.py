@@ -82,7 +82,7 @@ def value_words(kind: str, plural: bool = False) -> dict[str, str]:
     """Every word accepted for a placeholder of ``kind`` (``"Z"`` size, ``"C"`` colour, ``"S"`` shape) -> its
     canonical value: the value, the generator's synonyms, VALUE_ALIASES and QUESTION_ALIASES (plural forms with
     ``plural``)."""
-    from .dataset.synonyms import SYNONYMS  # importing the dataset package costs numpy: only at first use
+    from .synonyms import SYNONYMS
 
     aliases = {**VALUE_ALIASES, **QUESTION_ALIASES}
     out: dict[str, str] = {}
@@ -107,7 +107,7 @@ class _Choice:
 
 
 def _choices(text: str) -> list[_Choice]:
-    from .dataset.synonyms import SYNONYMS
+    from .synonyms import SYNONYMS
 
     out: list[_Choice] = []
     for star, kind, two, plural, word, mark in _TEMPLATE_TOKEN.findall(text):

@@ -31,6 +31,7 @@ from craft_dsl.perception import (
     parse_scene,
     save_perceived,
 )
+from craft_dsl.perception import schema as schema_module
 from craft_dsl.perception import validation as validation_module
 from craft_dsl.perception.answering import answer_all, template_questions
 from craft_dsl.perception.distribution import answer_distributions
@@ -208,7 +209,8 @@ def find_problems_calls(monkeypatch: pytest.MonkeyPatch) -> list[int]:
         calls.append(len(scene.objects))
         return original(scene)
 
-    monkeypatch.setattr(validation_module, "find_problems", counting)
+    for module in (schema_module, validation_module):  # the model's validator and the loaders
+        monkeypatch.setattr(module, "find_problems", counting)
     return calls
 
 

@@ -14,7 +14,7 @@ intervals ``[start, end)``; ``end == steps`` means the pair still touches when t
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -127,3 +127,28 @@ def coalesce(intervals: Iterable[Interval]) -> tuple[Interval, ...]:
 def splice(base: Iterable[Interval], run: Iterable[Interval], switch: int, steps: int) -> tuple[Interval, ...]:
     """Base intervals before frame ``switch``, run intervals from it on, joined across the switch."""
     return coalesce(clip(base, 0, switch) + clip(run, switch, steps))
+
+
+# -- perturbations -----------------------------------------------------------------------------------
+
+
+def perturb_world(world: WorldSpec, seed: int, amount: float = 0.02) -> WorldSpec:
+    """The original simulator's perturbation noise, once per dynamic body with one seeded generator (creation order):
+    r ~ U(-1, 1); angle and velocity scaled by (1 + a r); x and y shifted by 10 a r / (1 + a r) when
+    vx != 0."""
+    rng = np.random.default_rng(seed)
+    bodies = []
+    for b in world.bodies:
+        if not b.dynamic:
+            bodies.append(b)
+            continue
+        r = float(rng.uniform(-1.0, 1.0))
+        f = 1.0 + amount * r
+        shift = 10.0 * amount * r / f if b.velocity[0] != 0 else 0.0
+        bodies.append(replace(
+            b,
+            angle=b.angle * f,
+            velocity=(b.velocity[0] * f, b.velocity[1] * f),
+            position=(b.position[0] + shift, b.position[1] + shift),
+        ))
+    return replace(world, bodies=tuple(bodies))

@@ -30,13 +30,11 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, TypeVar, overload
 
-import numpy as np
-
 from ..errors import CounterfactualUnavailable, MissingExtraError
 from ..simulation import ObjectState, SimObject, Simulation, Trajectory
 from ..vocabulary import DEFAULT_ENGINE, ENGINES, ORIGINAL_ENGINE
 from ..world import DEFAULT_STEPS, WorldSpec
-from .engine import ContactLog, Interval, PhysicsEngine, RawRun, ReplayPlan, splice
+from .engine import ContactLog, Interval, PhysicsEngine, RawRun, ReplayPlan, perturb_world, splice
 from .events import events_from_log
 
 if TYPE_CHECKING:
@@ -282,31 +280,6 @@ def clean_counterfactual(
     else:  # pragma: no cover - activations are monotone and bounded; this guards against engine bugs
         raise RuntimeError(f"counterfactual without {removed} did not converge in {max_rounds} rounds")
     return RawRun(run.trajectory, run.awake, splice_logs(base_log, run.log, activation)), activation
-
-
-# -- perturbations -----------------------------------------------------------------------------------
-
-
-def perturb_world(world: WorldSpec, seed: int, amount: float = 0.02) -> WorldSpec:
-    """The original simulator's perturbation noise, once per dynamic body with one seeded generator (creation order):
-    r ~ U(-1, 1); angle and velocity scaled by (1 + a r); x and y shifted by 10 a r / (1 + a r) when
-    vx != 0."""
-    rng = np.random.default_rng(seed)
-    bodies = []
-    for b in world.bodies:
-        if not b.dynamic:
-            bodies.append(b)
-            continue
-        r = float(rng.uniform(-1.0, 1.0))
-        f = 1.0 + amount * r
-        shift = 10.0 * amount * r / f if b.velocity[0] != 0 else 0.0
-        bodies.append(replace(
-            b,
-            angle=b.angle * f,
-            velocity=(b.velocity[0] * f, b.velocity[1] * f),
-            position=(b.position[0] + shift, b.position[1] + shift),
-        ))
-    return replace(world, bodies=tuple(bodies))
 
 
 # -- entry point -------------------------------------------------------------------------------------

@@ -12,7 +12,7 @@ craft_dsl drives it through its scene-from-JSON mode, so that every engine start
 Counterfactuals are made as the original pipeline makes them: the step-0 scene less one object, simulated again
 (lazily, one run per object asked for). They are not "clean" in craft_dsl's sense: the original's own numerical
 noise is part of what it computes. Perturbations use craft_dsl's seeded version of the original's noise formula
-(:func:`~craft_dsl.physics.live.perturb_world`), so that every engine gets the same perturbed start state.
+(:func:`~craft_dsl.physics.engine.perturb_world`), so that every engine gets the same perturbed start state.
 
 >>> from craft_dsl.physics import simulate
 >>> sim = simulate(3, seed=0, engine="original")   # doctest: +SKIP
@@ -41,6 +41,7 @@ from ..atomic import atomic_path
 from ..errors import CounterfactualUnavailable, CraftError, SimulationFileError
 from ..simulation import Simulation
 from ..world import DEFAULT_STEPS, DENSITY, FRICTION, RESTITUTION, BodySpec, WorldSpec, regular_polygon
+from .engine import perturb_world
 
 #: Environment variables: the binary itself, the build cache, an X display to use instead of a private Xvfb,
 #: and the time limit of one run in seconds.
@@ -515,8 +516,6 @@ class OriginalSimulation(Simulation):
 
     def perturbed(self, seed: int, amount: float = 0.02) -> OriginalSimulation:
         """The whole scene re-run by the original from craft_dsl's seeded perturbation of the start state."""
-        from .live import perturb_world
-
         world = perturb_world(self.world_spec, seed, amount)
         meta = dict(self.meta, perturbation_seed=seed, perturbation_amount=amount)
         run = self.simulator.run(world, self.steps, what=f"{_describe(self.world_spec)} perturbed (seed {seed})")
