@@ -39,6 +39,7 @@ from ..world import (
 )
 from .coords import to_metres
 from .events import RowStates
+from .params import ANGLE, POSITION, SPIN, VELOCITY, VX, VY, X, Y
 from .reading import ObjectReading, is_static_shape
 from .schema import PerceivedScene
 from .tracks import INTEGRATOR_C, Motion, window_for
@@ -48,8 +49,8 @@ FIT_ITERATIONS = 12
 #: Misfit (square metres, summed over the fitted rows) within which a simpler initial-velocity hypothesis is as
 #: good as the best one.
 MISFIT_MARGIN = 1e-9
-#: Finite-difference steps of the state components (x, y, angle, vx, vy, spin).
-_FD_STEP = {0: 1e-6, 1: 1e-6, 2: 1e-7, 3: 1e-5, 4: 1e-5, 5: 1e-6}
+#: Finite-difference steps of the state components.
+_FD_STEP = {X: 1e-6, Y: 1e-6, ANGLE: 1e-7, VX: 1e-5, VY: 1e-5, SPIN: 1e-6}
 #: The start fit stops when every residual is below this (metres, radians, m/s, rad/s).
 FIT_TOLERANCE = 1e-12
 #: ...or when its last iteration lowered no group's misfit by this share of it or more: a hypothesis that cannot fit
@@ -155,8 +156,8 @@ def _motion_state(m: Motion, row: int) -> np.ndarray:
 
 
 def _with_state(spec: BodySpec, s: np.ndarray) -> BodySpec:
-    return replace(spec, position=(float(s[0]), float(s[1])), angle=float(s[2]), velocity=(float(s[3]), float(s[4])),
-                   angular_velocity=float(s[5]))
+    return replace(spec, position=(float(s[X]), float(s[Y])), angle=float(s[ANGLE]),
+                   velocity=(float(s[VX]), float(s[VY])), angular_velocity=float(s[SPIN]))
 
 
 def _state_of(spec: BodySpec) -> np.ndarray:
@@ -188,7 +189,7 @@ def fit_rows(motions: Mapping[int, Motion]) -> int:
 
 #: An initial-velocity hypothesis: vx, vy, each fixed (a number) or free (None).
 Hypothesis = tuple[float | None, float | None]
-_HYPOTHESIS_INDEX = (3, 4)
+_HYPOTHESIS_INDEX = (VX, VY)
 
 
 def start_hypotheses(layout: int | None) -> list[Hypothesis]:
@@ -240,7 +241,7 @@ def _fit_hypotheses(pw: PhysicsWorld, motions: Mapping[int, Motion], engine: Phy
                 if value is not None:
                     s[k] = value
             # the position that reaches the perceived row 1 in free flight with this velocity
-            s[0:2] = motions[b.uid].positions[1] - h * s[3:5] - INTEGRATOR_C * g * h * h
+            s[POSITION] = motions[b.uid].positions[1] - h * s[VELOCITY] - INTEGRATOR_C * g * h * h
             guess[b.uid] = s
         states, cost = _gauss_newton(world, motions, engine, layout is not None, guess,
                                      {b.uid: hypothesis for b in dynamic}, use_state)
@@ -283,55 +284,90 @@ def _gauss_newton(world: WorldSpec, motions: Mapping[int, Motion], engine: Physi
     against the whole row-1 state (position, angle, velocity, spin).
     Returns the states and each body's misfit (sum of squares). Bodies that may touch each other are fitted
     jointly (:func:`_components`); a step is taken with backtracking."""
-    dynamic = [b for b in world.bodies if b.dynamic]
-    cols = {b.uid: i for i, b in enumerate(world.bodies)}
-    rows = 1 if use_state else min(fit_rows(motions), min(motions[b.uid].steps for b in dynamic))
-    fit_angle = not layout_prior
-    index = {uid: [0, 1] + [k for k, c in zip(_HYPOTHESIS_INDEX, h) if c is None] + ([2, 5] if fit_angle else [])
-             for uid, h in hypotheses.items()}
+    fit = _JointFit(world, motions, engine, hypotheses, fit_angle=not layout_prior, use_state=use_state)
     states = {uid: np.array(s, dtype=np.float64) for uid, s in guess.items()}
     if layout_prior:
         for s in states.values():
-            s[2], s[5] = INITIAL_ANGLE, 0.0
-
-    def observed(m: Motion) -> np.ndarray:
-        if use_state:
-            return _motion_state(m, 1)
-        parts = [m.positions[1:rows + 1].ravel()] + ([m.angles[1:rows + 1]] if fit_angle else [])
-        return np.concatenate(parts)
-
-    def simulated(raw: RawRun, uid: int) -> np.ndarray:
-        if use_state:
-            return _row_state(raw, cols[uid], 1)
-        t = raw.trajectory
-        parts = [t.positions[1:rows + 1, cols[uid]].ravel()] + ([t.angles[1:rows + 1, cols[uid]]] if fit_angle
-                                                               else [])
-        return np.concatenate(parts)
-
-    targets = {b.uid: observed(motions[b.uid]) for b in dynamic}
-    components = _components(dynamic, motions, rows)
-    width = max(len(c) for c in components)
-
-    def evaluate(st: Mapping[int, np.ndarray]) -> tuple[RawRun, dict[int, np.ndarray], dict[int, float]]:
-        raw = engine.run(_with_states(world, st), rows)
-        residual = {b.uid: targets[b.uid] - simulated(raw, b.uid) for b in dynamic}
-        return raw, residual, {uid: float(r @ r) for uid, r in residual.items()}
-
-    def group_cost(c: dict[int, float], group: list[int]) -> float:
-        return sum(c[u] for u in group)
-
-    def stalled(before: float, after: float) -> bool:
-        return after < FIT_TOLERANCE ** 2 or before - after < STALL_FRACTION * before
-
-    base, residual, cost = evaluate(states)
+            s[ANGLE], s[SPIN] = INITIAL_ANGLE, 0.0
+    base, residual, cost = fit.evaluate(states)
     for _ in range(FIT_ITERATIONS):
         if max(cost.values()) < FIT_TOLERANCE ** 2:
             break
-        # Jacobian of each group's residuals w.r.t. all its bodies' parameters; the n-th parameter of the k-th body
-        # of every group is perturbed in the same run (groups do not interact)
-        offsets = {tuple(g): np.cumsum([0] + [len(index[u]) for u in g]) for g in components}
-        jac = {tuple(g): np.zeros((sum(targets[u].size for u in g), int(offsets[tuple(g)][-1]))) for g in components}
-        for slot in range(width):
+        accepted = fit.backtrack(states, fit.steps(fit.jacobian(states, base), residual), cost)
+        if not accepted:
+            break
+        states = {uid: accepted.get(uid, st) for uid, st in states.items()}
+        before = cost
+        base, residual, cost = fit.evaluate(states)
+        if fit.stalled(before, cost):
+            break
+    return states, cost
+
+
+def _fitted_components(hypothesis: Hypothesis, fit_angle: bool) -> list[int]:
+    """The state components fitted under ``hypothesis``: position, the free velocity components, angle and spin."""
+    free = [k for k, c in zip(_HYPOTHESIS_INDEX, hypothesis) if c is None]
+    return [X, Y] + free + ([ANGLE, SPIN] if fit_angle else [])
+
+
+#: A group of bodies fitted jointly (uids).
+Group = tuple[int, ...]
+
+
+class _JointFit:
+    """The misfit of start states against the first rows, and its Gauss-Newton steps, per group of bodies that may
+    touch each other (:func:`_gauss_newton`)."""
+
+    def __init__(self, world: WorldSpec, motions: Mapping[int, Motion], engine: PhysicsEngine,
+                 hypotheses: Mapping[int, Hypothesis], fit_angle: bool, use_state: bool) -> None:
+        self.world = world
+        self.engine = engine
+        self.fit_angle = fit_angle
+        self.use_state = use_state
+        self.dynamic = [b for b in world.bodies if b.dynamic]
+        self.cols = {b.uid: i for i, b in enumerate(world.bodies)}
+        self.rows = 1 if use_state else min(fit_rows(motions), min(motions[b.uid].steps for b in self.dynamic))
+        #: per body, the state components fitted
+        self.index = {uid: _fitted_components(h, fit_angle) for uid, h in hypotheses.items()}
+        self.targets = {b.uid: self.observed(motions[b.uid]) for b in self.dynamic}
+        self.components = _components(self.dynamic, motions, self.rows)
+        self.width = max(len(c) for c in self.components)
+        #: per group, where each body's parameters start in the group's parameter vector
+        self.offsets = {tuple(g): np.cumsum([0] + [len(self.index[u]) for u in g]) for g in self.components}
+
+    def observed(self, m: Motion) -> np.ndarray:
+        """What a body's track shows of the fitted rows."""
+        if self.use_state:
+            return _motion_state(m, 1)
+        rows = self.rows
+        parts = [m.positions[1:rows + 1].ravel()] + ([m.angles[1:rows + 1]] if self.fit_angle else [])
+        return np.concatenate(parts)
+
+    def simulated(self, raw: RawRun, uid: int) -> np.ndarray:
+        """The same of body ``uid`` in ``raw``."""
+        if self.use_state:
+            return _row_state(raw, self.cols[uid], 1)
+        t, rows, col = raw.trajectory, self.rows, self.cols[uid]
+        parts = [t.positions[1:rows + 1, col].ravel()] + ([t.angles[1:rows + 1, col]] if self.fit_angle else [])
+        return np.concatenate(parts)
+
+    def run(self, states: Mapping[int, np.ndarray]) -> RawRun:
+        return self.engine.run(_with_states(self.world, states), self.rows)
+
+    def evaluate(self, states: Mapping[int, np.ndarray]) -> tuple[RawRun, dict[int, np.ndarray], dict[int, float]]:
+        """The run from ``states``, each body's residual and its misfit."""
+        raw = self.run(states)
+        residual = {b.uid: self.targets[b.uid] - self.simulated(raw, b.uid) for b in self.dynamic}
+        return raw, residual, {uid: float(r @ r) for uid, r in residual.items()}
+
+    def jacobian(self, states: Mapping[int, np.ndarray], base: RawRun) -> dict[Group, np.ndarray]:
+        """Jacobian of each group's residuals w.r.t. all its bodies' parameters (forward differences from ``base``,
+        the run from ``states``); the n-th parameter of the k-th body of every group is perturbed in the same run
+        (groups do not interact)."""
+        index, components = self.index, self.components
+        jac = {tuple(g): np.zeros((sum(self.targets[u].size for u in g), int(self.offsets[tuple(g)][-1])))
+               for g in components}
+        for slot in range(self.width):
             for n in range(max(len(index[g[slot]]) for g in components if slot < len(g))):
                 moved = {uid: st.copy() for uid, st in states.items()}
                 perturbed = []
@@ -340,36 +376,51 @@ def _gauss_newton(world: WorldSpec, motions: Mapping[int, Motion], engine: Physi
                         k = index[g[slot]][n]
                         moved[g[slot]][k] += _FD_STEP[k]
                         perturbed.append((g, k))
-                run = engine.run(_with_states(world, moved), rows)
+                run = self.run(moved)
                 for g, k in perturbed:
-                    column = np.concatenate([simulated(run, u) - simulated(base, u) for u in g]) / _FD_STEP[k]
-                    jac[tuple(g)][:, offsets[tuple(g)][slot] + n] = column
+                    column = np.concatenate([self.simulated(run, u) - self.simulated(base, u) for u in g]) / _FD_STEP[k]
+                    jac[tuple(g)][:, self.offsets[tuple(g)][slot] + n] = column
+        return jac
+
+    def steps(self, jac: Mapping[Group, np.ndarray], residual: Mapping[int, np.ndarray]) -> dict[int, np.ndarray]:
+        """Each body's Gauss-Newton step (least squares per group)."""
         deltas = {}
-        for g in components:
+        for g in self.components:
             r = np.concatenate([residual[u] for u in g])
             step = np.linalg.lstsq(jac[tuple(g)], r, rcond=None)[0]
-            off = offsets[tuple(g)]
+            off = self.offsets[tuple(g)]
             deltas.update({u: step[off[i]:off[i + 1]] for i, u in enumerate(g)})
+        return deltas
+
+    def backtrack(self, states: Mapping[int, np.ndarray], deltas: Mapping[int, np.ndarray],
+                  cost: Mapping[int, float]) -> dict[int, np.ndarray]:
+        """The new states of the groups whose misfit a full, half, quarter or eighth step lowers (the longest that
+        does; contacts make the landscape kinked); groups no step improves are left out."""
         accepted: dict[int, np.ndarray] = {}
-        for alpha in (1.0, 0.5, 0.25, 0.125):  # backtracking: contacts make the landscape kinked
+        for alpha in (1.0, 0.5, 0.25, 0.125):
             trial = {uid: st.copy() for uid, st in states.items()}
             for u in states:
                 if u not in accepted:
-                    trial[u][index[u]] += alpha * deltas[u]
-            _, _, trial_cost = evaluate(trial)
-            for g in components:
-                if g[0] not in accepted and group_cost(trial_cost, g) < group_cost(cost, g):
+                    trial[u][self.index[u]] += alpha * deltas[u]
+            _, _, trial_cost = self.evaluate(trial)
+            for g in self.components:
+                if g[0] not in accepted and _group_cost(trial_cost, g) < _group_cost(cost, g):
                     accepted.update({u: trial[u] for u in g})
             if len(accepted) == len(states):
                 break
-        if not accepted:
-            break
-        states = {uid: accepted.get(uid, st) for uid, st in states.items()}
-        before = cost
-        base, residual, cost = evaluate(states)
-        if all(stalled(group_cost(before, g), group_cost(cost, g)) for g in components):
-            break
-    return states, cost
+        return accepted
+
+    def stalled(self, before: Mapping[int, float], after: Mapping[int, float]) -> bool:
+        """Whether the last iteration converged or lowered no group's misfit by :data:`STALL_FRACTION` of it."""
+        for g in self.components:
+            b, a = _group_cost(before, g), _group_cost(after, g)
+            if not (a < FIT_TOLERANCE ** 2 or b - a < STALL_FRACTION * b):
+                return False
+        return True
+
+
+def _group_cost(cost: Mapping[int, float], group: Sequence[int]) -> float:
+    return sum(cost[u] for u in group)
 
 
 def _with_velocity(spec: BodySpec, v: np.ndarray) -> BodySpec:

@@ -25,8 +25,9 @@ simulator, a circle rolling on the flat ground slows by 0.15-0.3 m/s every secon
 both sizes, and one rolling at 0.3 m/s stops within 1.5 s, where a true circle rolls on for ever. So after every
 step a dynamic circle that touches anything has its spin reduced towards zero by ``3 a dt / r`` (``a`` =
 :func:`rolling_deceleration` of its radius ``r``; once friction has shared the loss between spin and motion, a
-rolling disc slows by ``a``). ``Box2DEngine(rolling_deceleration=(0.0, 0.0))`` gives true circles. Their contacts
-with statics flicker as the 128-gons' do (:mod:`~craft_dsl.physics.flicker`; ``flicker=False``: one contact).
+rolling disc slows by ``a dt``: :data:`SPIN_LOSS_PER_SPEED_LOSS` says why).
+``Box2DEngine(rolling_deceleration=(0.0, 0.0))`` gives true circles. Their contacts with statics flicker
+as the 128-gons' do (:mod:`~craft_dsl.physics.flicker`; ``flicker=False``: one contact).
 
 Replay (see :class:`~craft_dsl.physics.engine.ReplayPlan`): a replayed body is a kinematic body, placed
 exactly on its recorded row at the start of every frame and moved at the recorded mean velocity during
@@ -62,6 +63,14 @@ SENSOR_CATEGORY = 0x0042
 #: speeds of 0.75 to 10 m/s (1.5 s of rolling each; the spread between speeds is about 0.03); in between and beyond,
 #: linear in the radius (at least 0.05).
 ROLLING_DECELERATION = (0.22, 0.17)
+#: The spin a rolling disc must lose for its speed to drop by one unit (times 1/radius): friction at the contact
+#: point conserves the disc's angular momentum about that point, ``(I + m r^2) w`` = ``(3/2) m r^2 w`` for a uniform
+#: disc (``I = m r^2 / 2``). Taking ``dw`` of spin alone removes ``I dw``, a third of what the same drop while
+#: rolling would (``(3/2) m r^2 dw``): once friction has shared the loss between spin and motion, the disc rolls
+#: ``dw / 3`` slower, ``r dw / 3`` m/s. So a loss of ``a dt`` m/s in a step takes ``3 a dt / r`` of spin.
+SPIN_LOSS_PER_SPEED_LOSS = 3.0
+#: The numbers of a simulated body's recorded row: x, y, angle, vx, vy, spin, awake (1.0 or 0.0).
+_ROW_WIDTH = 7
 
 
 def rolling_deceleration(radius: float, measured: tuple[float, float] = ROLLING_DECELERATION) -> float:
@@ -99,13 +108,25 @@ class _Listener(Box2D.b2ContactListener):
         run.touch(rec, key, -1)
 
 
+def _native(owner: Any, name: str) -> Any:
+    """The SWIG builtin ``name`` (``GetAngle``, ``SetTransform``, ...) of a pybox2d class or object, bound where
+    ``owner`` is an object.
+
+    pybox2d wraps each getter and setter in a Python property (``body.angle`` calls ``body._b2Body__GetAngle``),
+    and in the per-step loops and contact callbacks that layer costs as much as the stepping itself; the builtin
+    gives the same values. pybox2d declares them private (``__GetAngle`` in class ``b2Body``), so they are
+    reached by their name-mangled form ``_b2Body__GetAngle``."""
+    cls = owner if isinstance(owner, type) else type(owner)
+    return getattr(owner, f"_{cls.__name__}__{name}")
+
+
 # The builtins behind contact.fixtureA / .fixtureB / .childIndexA / .childIndexB and fixture.userData, called
-# directly in the contact callbacks (the same values without pybox2d's property layer).
-_fixture_a = Box2D.b2Contact._b2Contact__GetFixtureA
-_fixture_b = Box2D.b2Contact._b2Contact__GetFixtureB
-_child_a = Box2D.b2Contact._b2Contact__GetChildIndexA
-_child_b = Box2D.b2Contact._b2Contact__GetChildIndexB
-_user_data = Box2D.b2Fixture._b2Fixture__GetUserData
+# directly in the contact callbacks.
+_fixture_a = _native(Box2D.b2Contact, "GetFixtureA")
+_fixture_b = _native(Box2D.b2Contact, "GetFixtureB")
+_child_a = _native(Box2D.b2Contact, "GetChildIndexA")
+_child_b = _native(Box2D.b2Contact, "GetChildIndexB")
+_user_data = _native(Box2D.b2Fixture, "GetUserData")
 
 
 def _chains(segments: tuple[Segment, ...]) -> list[list[tuple[float, float]]]:
@@ -255,106 +276,139 @@ class _Run:
         return self.log.route(ua, pa + _child_a(contact), sa, ub, pb + _child_b(contact), sb)
 
     def execute(self) -> RawRun:
+        """Build the world, step it ``steps`` times (activating, replaying and rolling as due) and record the run."""
         eng, world, steps = self.engine, self.world, self.steps
         rec: StateRecorder[Any] = StateRecorder(world, steps, self.replay)
-        b2w, bodies = eng.build_world(world, rec.replayed)
-        rec.attach(bodies)
+        self.rec = rec
+        b2w, self.bodies = eng.build_world(world, rec.replayed)
+        rec.attach(self.bodies)
         first = rec.first
         if self.replay is not None:
             for i, body in rec.active:
                 _set_state(body, rec.state(i, first), wake=True)
-        listener = _Listener(self)
-        b2w.contactListener = listener
-
-        fps = float(world.steps_per_second)
-        dt = 1.0 / fps
-        # Rows of simulated bodies: per body one flat list of (x, y, angle, vx, vy, w, awake) per frame, read
-        # through Box2D's own position / velocity vectors (SWIG references into the body, valid for its life),
-        # converted to arrays once at the end (rec.rows stay empty, so rec.result keeps these rows).
-        tracks: list[_Track] = [_Track(i, first + 1, body) for i, body in rec.active]
-        # Replayed bodies: the setters behind body.transform / .linearVelocity / .angularVelocity, and their
-        # base rows as Python floats (the same values and arithmetic as rec.kinematic_state).
-        replays: dict[int, tuple[Any, Any, Any, list[float], list[float], list[float]]] = {}
-        for i, body in rec.kinematic:
-            replays[i] = (body._b2Body__SetTransform, body._b2Body__SetLinearVelocity,
-                          body._b2Body__SetAngularVelocity,
-                          rec.pos[:, i, 0].tolist(), rec.pos[:, i, 1].tolist(), rec.ang[:, i].tolist())
-        step, vi, pi = b2w.Step, eng.velocity_iterations, eng.position_iterations
+        b2w.contactListener = _Listener(self)
+        self.fps = float(world.steps_per_second)
+        self.dt = 1.0 / self.fps
+        # Rows of simulated bodies: per body one flat list of _ROW_WIDTH numbers per frame, read through Box2D's own
+        # position / velocity vectors (SWIG references into the body, valid for its life), converted to arrays once
+        # at the end (rec.rows stay empty, so rec.result keeps these rows).
+        self.tracks = [_Track(i, first + 1, body) for i, body in rec.active]
+        self.replays = {i: _Replay(body, rec, i) for i, body in rec.kinematic}
         # the circles that lose spin as they roll: (uid, spin loss per step, the body's spin getter and setter)
-        rollers: list[tuple[int, float, Any, Any]] = []
-
-        def add_roller(uid: int, body: Any) -> None:
-            radius = world.body(uid).geometry.circle_radius
-            if not radius:
-                return
-            decel = rolling_deceleration(radius, eng.rolling_deceleration)
-            if decel > 0.0:
-                rollers.append((uid, 3.0 * decel * dt / radius,
-                                body._b2Body__GetAngularVelocity, body._b2Body__SetAngularVelocity))
-
+        self.rollers: list[tuple[int, float, Any, Any]] = []
         for i, body in rec.active:
-            add_roller(rec.ids[i], body)
-        touching = self.touching
-        find_new_contacts = b2w.contactManager.FindNewContacts
+            self.add_roller(rec.ids[i], body)
+        self.find_new_contacts = b2w.contactManager.FindNewContacts
+        step, vi, pi, dt = b2w.Step, eng.velocity_iterations, eng.position_iterations, self.dt
         pending = rec.pending
         next_due = pending[0][0] if pending else -1
         for k in range(first, steps):
             self.frame = k
             if k == next_due:
-                for uid in rec.due(k):
-                    body = bodies[uid]
-                    body.type = Box2D.b2_dynamicBody  # drops its contacts (EndContact stamped k)
-                    i = rec.col[uid]
-                    _set_state(body, rec.state(i, k), wake=True)
-                    rec.activate(uid, body, k)
-                    tracks.append(_Track(i, k + 1, body))
-                    add_roller(uid, body)
-                find_new_contacts()  # so this step's Collide sees them again (and continues the contacts)
+                self.activate_due(k)
                 next_due = pending[0][0] if pending else -1
-            for i, _ in rec.kinematic:  # on its row, at the mean velocity that reaches the next one
-                set_transform, set_velocity, set_angular_velocity, xs, ys, angs = replays[i]
-                x0, y0, a0 = xs[k], ys[k], angs[k]
-                set_transform((x0, y0), a0)
-                set_velocity(((xs[k + 1] - x0) * fps, (ys[k + 1] - y0) * fps))
-                set_angular_velocity((angs[k + 1] - a0) * fps)
+            self.replay_kinematic(k)
             step(dt, vi, pi)
-            for uid, loss, get_spin, set_spin in rollers:
-                if touching.get(uid):
-                    spin = get_spin()
-                    if spin > loss:
-                        set_spin(spin - loss)
-                    elif spin < -loss:
-                        set_spin(spin + loss)
-                    elif spin:
-                        set_spin(0.0)
-            for t in tracks:
-                if t.awake():
-                    p, v = t.p, t.v
-                    t.buf += (p.x, p.y, t.angle(), v.x, v.y, t.angular_velocity(), 1.0)
-                    t.asleep = None
-                elif t.asleep is not None:  # still asleep: Box2D has not moved it
-                    t.buf += t.asleep
-                else:  # fell asleep in this step (after moving in it) or asleep from the start
-                    p = t.p
-                    row = (p.x, p.y, t.angle(), 0.0, 0.0, 0.0, 0.0)  # Box2D zeroes a sleeping body's velocity
-                    t.buf += row
-                    t.asleep = row
+            self.lose_rolling_spin()
+            self.record_rows()
         b2w.contactListener = None
-        for t in tracks:
+        return self.result()
+
+    def add_roller(self, uid: int, body: Any) -> None:
+        """Register ``body`` as losing spin while it rolls, if it is a circle with a rolling loss."""
+        radius = self.world.body(uid).geometry.circle_radius
+        if not radius:
+            return
+        decel = rolling_deceleration(radius, self.engine.rolling_deceleration)
+        if decel > 0.0:
+            self.rollers.append((uid, SPIN_LOSS_PER_SPEED_LOSS * decel * self.dt / radius,
+                                 _native(body, "GetAngularVelocity"), _native(body, "SetAngularVelocity")))
+
+    def activate_due(self, k: int) -> None:
+        """Switch the replayed bodies due at frame ``k`` to dynamic, on their recorded state there."""
+        rec = self.rec
+        for uid in rec.due(k):
+            body = self.bodies[uid]
+            body.type = Box2D.b2_dynamicBody  # drops its contacts (EndContact stamped k)
+            i = rec.col[uid]
+            _set_state(body, rec.state(i, k), wake=True)
+            rec.activate(uid, body, k)
+            self.tracks.append(_Track(i, k + 1, body))
+            self.add_roller(uid, body)
+        self.find_new_contacts()  # so this step's Collide sees them again (and continues the contacts)
+
+    def replay_kinematic(self, k: int) -> None:
+        """Place each replayed body on its row ``k``, moving at the mean velocity that reaches row ``k + 1``."""
+        fps, replays = self.fps, self.replays
+        for i, _ in self.rec.kinematic:
+            r = replays[i]
+            xs, ys, angs = r.xs, r.ys, r.angles
+            x0, y0, a0 = xs[k], ys[k], angs[k]
+            r.set_transform((x0, y0), a0)
+            r.set_velocity(((xs[k + 1] - x0) * fps, (ys[k + 1] - y0) * fps))
+            r.set_angular_velocity((angs[k + 1] - a0) * fps)
+
+    def lose_rolling_spin(self) -> None:
+        """Take each touching roller's spin loss of one step off its spin (towards zero, never past it)."""
+        touching = self.touching
+        for uid, loss, get_spin, set_spin in self.rollers:
+            if touching.get(uid):
+                spin = get_spin()
+                if spin > loss:
+                    set_spin(spin - loss)
+                elif spin < -loss:
+                    set_spin(spin + loss)
+                elif spin:
+                    set_spin(0.0)
+
+    def record_rows(self) -> None:
+        """Append each simulated body's row of the step just taken."""
+        for t in self.tracks:
+            if t.awake():
+                p, v = t.p, t.v
+                t.buf += (p.x, p.y, t.angle(), v.x, v.y, t.angular_velocity(), 1.0)
+                t.asleep = None
+            elif t.asleep is not None:  # still asleep: Box2D has not moved it
+                t.buf += t.asleep
+            else:  # fell asleep in this step (after moving in it) or asleep from the start
+                p = t.p
+                row = (p.x, p.y, t.angle(), 0.0, 0.0, 0.0, 0.0)  # Box2D zeroes a sleeping body's velocity
+                t.buf += row
+                t.asleep = row
+
+    def result(self) -> RawRun:
+        """The recorded run: the tracks' rows in the recorder's arrays, the contact log (with flicker)."""
+        rec, world = self.rec, self.world
+        for t in self.tracks:
             if t.buf:
-                a = np.fromiter(t.buf, dtype=np.float64, count=len(t.buf)).reshape(-1, 7)
+                a = np.fromiter(t.buf, dtype=np.float64, count=len(t.buf)).reshape(-1, _ROW_WIDTH)
                 i, r0 = t.col, t.row
                 rec.pos[r0:, i] = a[:, 0:2]
                 rec.ang[r0:, i] = a[:, 2]
                 rec.vel[r0:, i] = a[:, 3:5]
                 rec.angv[r0:, i] = a[:, 5]
                 rec.awake[r0:, i] = a[:, 6] != 0.0
-        raw = rec.result(self.log.log(steps))
-        if eng.flicker:
+        raw = rec.result(self.log.log(self.steps))
+        if self.engine.flicker:
             circles = [b.uid for b in world.bodies if b.dynamic and b.geometry.circle_radius]
             statics = [b.uid for b in world.bodies if not b.dynamic]
             raw = replace(raw, log=add_flicker(raw.log, raw.trajectory, circles, statics))
         return raw
+
+
+class _Replay:
+    """A replayed body's setters (behind body.transform / .linearVelocity / .angularVelocity) and its recorded
+    rows as Python floats (the same values and arithmetic as rec.kinematic_state)."""
+
+    __slots__ = ("set_transform", "set_velocity", "set_angular_velocity", "xs", "ys", "angles")
+
+    def __init__(self, body: Any, rec: StateRecorder[Any], i: int) -> None:
+        self.set_transform = _native(body, "SetTransform")
+        self.set_velocity = _native(body, "SetLinearVelocity")
+        self.set_angular_velocity = _native(body, "SetAngularVelocity")
+        self.xs: list[float] = rec.pos[:, i, 0].tolist()
+        self.ys: list[float] = rec.pos[:, i, 1].tolist()
+        self.angles: list[float] = rec.ang[:, i].tolist()
 
 
 class _Track:
@@ -365,11 +419,11 @@ class _Track:
     def __init__(self, col: int, row: int, body: Any) -> None:
         self.col = col
         self.row = row
-        self.awake = body._b2Body__IsAwake  # the bound getters behind body.awake / .angle / .angularVelocity
+        self.awake = _native(body, "IsAwake")  # the bound getters behind body.awake / .angle / .angularVelocity
         self.p = body.position  # references to the body's position and velocity (not copies)
         self.v = body.linearVelocity
-        self.angle = body._b2Body__GetAngle
-        self.angular_velocity = body._b2Body__GetAngularVelocity
+        self.angle = _native(body, "GetAngle")
+        self.angular_velocity = _native(body, "GetAngularVelocity")
         self.buf: list[float] = []
         self.asleep: tuple[float, ...] | None = None  # the last row if it was asleep
 

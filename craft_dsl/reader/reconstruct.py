@@ -50,6 +50,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ..perception.events import GeometryProbe
+from ..perception.params import ANGLE, POSITION, SIZE, SPIN, VX, VY, X, Y, block, per_component, pose
 from ..physics.engine import ContactLog, PhysicsEngine, RawRun, splice
 from ..physics.live import LiveSimulation, get_engine
 from ..physics.reach import interaction_groups
@@ -126,6 +127,16 @@ OVERLAP_SLACK = 0.02
 OVERLAP_BISECTIONS = 6
 ANCHOR_MOVER_PX = 1.0
 ANCHOR_ITERATIONS = 5
+#: A restart window shorter than this (frames) is not fitted.
+ANCHOR_MIN_FRAMES = 4
+#: Levenberg-Marquardt damping of a restart fit: this share of each diagonal term of J^T J plus this floor, so a
+#: state the window does not pin down (a body at rest) keeps its value.
+ANCHOR_DAMPING = 1e-3
+ANCHOR_DAMPING_FLOOR = 1e-6
+#: Step lengths tried, in turn, along a restart fit's step (the first that lowers the misfit is taken).
+ANCHOR_STEP_SCALES = (1.0, 0.5, 0.25, 0.1)
+#: Weight of a colour centroid's residual in a restart fit, against 1 for an exact pose.
+CENTROID_WEIGHT = 0.2
 #: Each restart must push the first stray later; this caps their number, and so the time a video's restarts take.
 #: A lossy copy's noisier poses let runs stray sooner and need more restarts: at 6, 127 of a held-out seed's 346 H.264
 #: (crf 28) test copies used every one (57 of the files); at 12 those runs strayed 4.7 px at most at the median
@@ -133,8 +144,12 @@ ANCHOR_ITERATIONS = 5
 #: wrong (MPEG-4 q 8 copies: 6 and 4 of 501; the files: 0 and 1 of 346); 24 gained 3 of 177 more on the 29 copies
 #: still using all 12.
 MAX_ANCHORS = 12
-_ZERO6 = np.zeros(6)
-_ANCHOR_STEP_LIMIT = np.tile([0.5, 0.5, 0.5, 5.0, 5.0, 5.0], 16)
+_NO_OFFSET = np.zeros(SIZE)
+#: The largest change of one restart-fit step (metres and radians for the pose, m/s and rad/s for the motion), for
+#: up to 16 movers.
+_ANCHOR_STEP_LIMIT = np.tile(per_component(0.5, 5.0), 16)
+#: The finite-difference steps of a restart fit's Jacobian, per body (pose, motion).
+_ANCHOR_FD_STEP = per_component(1e-4, 1e-3)
 #: Distances above this (pixels) count as this much in the score of a run.
 SCORE_CAP_PX = 20.0
 #: Other (shape, size) readings tried per body when the run strays: at most this many, each at least this likely.
@@ -697,12 +712,12 @@ def _state_world(world: WorldSpec, traj: Trajectory, row: int, offsets: Mapping[
             bodies.append(b)
             continue
         c = traj.column(b.uid)
-        d = offsets.get(b.uid, _ZERO6)
+        d = offsets.get(b.uid, _NO_OFFSET)
         bodies.append(replace(
-            b, position=(float(traj.positions[row, c, 0] + d[0]), float(traj.positions[row, c, 1] + d[1])),
-            angle=float(traj.angles[row, c] + d[2]),
-            velocity=(float(traj.velocities[row, c, 0] + d[3]), float(traj.velocities[row, c, 1] + d[4])),
-            angular_velocity=float(traj.angular_velocities[row, c] + d[5])))
+            b, position=(float(traj.positions[row, c, 0] + d[X]), float(traj.positions[row, c, 1] + d[Y])),
+            angle=float(traj.angles[row, c] + d[ANGLE]),
+            velocity=(float(traj.velocities[row, c, 0] + d[VX]), float(traj.velocities[row, c, 1] + d[VY])),
+            angular_velocity=float(traj.angular_velocities[row, c] + d[SPIN])))
     return replace(world, bodies=tuple(bodies))
 
 
@@ -718,8 +733,8 @@ def _place(probe: GeometryProbe, traj: Trajectory, row: int, offsets: Mapping[in
     positions = traj.positions[row].copy()
     angles = traj.angles[row].copy()
     for uid, d in offsets.items():
-        positions[columns[uid]] += d[:2]
-        angles[columns[uid]] += d[2]
+        positions[columns[uid]] += d[POSITION]
+        angles[columns[uid]] += d[ANGLE]
     probe.place(positions, angles, columns)
 
 
@@ -748,103 +763,136 @@ def stitch(base: RawRun, tail: RawRun, row: int) -> RawRun:
 
 
 def reanchor(sim: LiveSimulation, fit: StartFit, frames: int, first_stray: int, eng: PhysicsEngine,
-             refresh: Callable[[Sequence[int]], None] | None, back: int = 6, window: int = 36
+             refresh: Callable[[Sequence[int]], None] | None, back: int = ANCHOR_BACK, window: int = ANCHOR_WINDOW
              ) -> LiveSimulation | None:
     """Restart the bodies that stray from the video a few frames before ``first_stray``, their state there fitted
-    to the next :data:`ANCHOR_WINDOW` frames (Gauss-Newton on position, angle, velocity and spin of each), and run on
-    to the end. ``back`` and ``window`` are frames at 60 fps (:func:`anchor_frames` converts them). Each trial state
-    is made physical first (:func:`_physical`: no body sunk into another beyond :data:`OVERLAP_SLACK` more than the
-    replaced run had it). None when the fit does not follow the window better than the run it replaces."""
+    to the next :data:`ANCHOR_WINDOW` frames (Levenberg-Marquardt on position, angle, velocity and spin of each), and
+    run on to the end. ``back`` and ``window`` are frames at 60 fps (:func:`anchor_frames` converts them). Each trial
+    state is made physical first (:func:`_physical`: no body sunk into another beyond :data:`OVERLAP_SLACK` more than
+    the replaced run had it). None when the fit does not follow the window better than the run it replaces."""
     steps = sim.raw.log.steps
     back, window = anchor_frames(fit.rows, back, window)
     row = max(1, first_stray - back)
     end = min(frames, row + window)
-    if end - row < 4:
+    if end - row < ANCHOR_MIN_FRAMES:
         return None
     # the restart is the state just before frame ``row``'s step; the window's frames show ``rows[row:end] - start``
     # steps of the restarted run (at 60 fps: start = row, and frames row .. end - 1 are its steps 1 .. end - row)
     start = int(fit.rows[row]) - 1
-    shown = fit.rows[row:end] - start
     if refresh is not None:
         refresh(list(range(row, end)))
-    traj = sim.raw.trajectory
-    world = sim.world_spec
     dist = _distances(sim, fit, frames)
     movers = [fit.uids[s] for s, d in dist.items()
               if np.nanmax(np.concatenate([d[row:end], [0.0]])) > ANCHOR_MOVER_PX]
     if not movers:
         return None
-    obs = {s: o[row:end] for s, o in fit.observed.items()}
-    probe = GeometryProbe(world)
-    _place(probe, traj, start, {})
-    allowed = probe.overlap_depths(movers) + OVERLAP_SLACK
+    restart = _Restart(sim, fit, eng, start, fit.rows[row:end] - start, movers,
+                       {s: o[row:end] for s, o in fit.observed.items()})
+    offsets = restart.fit()
+    if offsets is None:
+        return None
+    tail = eng.run(_state_world(restart.world, restart.traj, start, offsets), steps - start)
+    raw = stitch(sim.raw, tail, start)
+    return LiveSimulation(restart.world, raw, eng, meta=dict(sim.meta, anchors=sim.meta.get("anchors", 0) + 1))
 
-    def run_at(params: np.ndarray) -> RawRun:
-        offsets = {uid: params[6 * i:6 * i + 6] for i, uid in enumerate(movers)}
-        return eng.run(_state_world(world, traj, start, offsets), int(shown[-1]))
 
-    def residual_of(run: RawRun) -> np.ndarray:
+def _offsets(movers: Sequence[int], params: np.ndarray) -> dict[int, np.ndarray]:
+    """Each mover's restart offset (dx, dy, dangle, dvx, dvy, dspin) in ``params``."""
+    return {uid: block(params, i) for i, uid in enumerate(movers)}
+
+
+class _Restart:
+    """The fit of a restart's state: the movers' offsets from the run's state at ``start`` that make the restarted
+    run follow the ``observed`` window (``shown``: the steps of the restarted run each frame of it shows)."""
+
+    def __init__(self, sim: LiveSimulation, fit: StartFit, eng: PhysicsEngine, start: int, shown: np.ndarray,
+                 movers: list[int], observed: dict[int, np.ndarray]) -> None:
+        self.start_fit = fit
+        self.eng = eng
+        self.start = start
+        self.shown = shown
+        self.movers = movers
+        self.observed = observed
+        self.traj = sim.raw.trajectory
+        self.world = sim.world_spec
+        self.probe = GeometryProbe(self.world)
+        _place(self.probe, self.traj, start, {})
+        self.allowed = self.probe.overlap_depths(movers) + OVERLAP_SLACK
+
+    def run_at(self, params: np.ndarray) -> RawRun:
+        """The restarted run over the window, the movers offset by ``params``."""
+        return self.eng.run(_state_world(self.world, self.traj, self.start, _offsets(self.movers, params)),
+                            int(self.shown[-1]))
+
+    def residual_of(self, run: RawRun) -> np.ndarray:
+        """Weighted distances (pixels) between ``run`` and the window's observed positions."""
+        fit, shown = self.start_fit, self.shown
         t = run.trajectory
         parts = []
-        for s, o in obs.items():
+        for s, o in self.observed.items():
             uid = fit.uids[s]
             c = t.column(uid)
             n = shown.size
             shape, _color, size = fit.attributes[s]
             pred = _as_observed(t.positions[shown, c], t.angles[shown, c], (shape, size), o[:n, 2], fit.size)
             ok = ~np.isnan(o[:n, 0])
-            w = np.where(o[:n, 2] > 0, 0.2, 1.0)  # colour centroids: a fifth of the weight of exact poses
+            w = np.where(o[:n, 2] > 0, CENTROID_WEIGHT, 1.0)  # colour centroids weigh less than exact poses
             parts.append(((pred - o[:n, :2])[ok] * w[ok, None]).ravel())
         return np.concatenate(parts) if parts else np.zeros(0)
 
-    row_slots = _row_slots(obs, shown.size)
-    dynamic = [b for b in world.bodies if b.dynamic]
-    params = np.zeros(6 * len(movers))
-    run = run_at(params)
-    r = residual_of(run)
-    cost = float(r @ r)
-    before = cost
-    steps_fd = np.tile([1e-4, 1e-4, 1e-4, 1e-3, 1e-3, 1e-3], len(movers))
-    for _ in range(ANCHOR_ITERATIONS):
-        # the states of movers that stay apart in this run are nudged in the same run
-        groups = _uid_groups(run, dynamic)
-        columns = [groups[uid] for uid in movers for _k in range(6)]
-        rows = np.array([groups[fit.uids[s]] for s in row_slots], dtype=int)
-        jac = forward_jacobian(lambda p: residual_of(run_at(p)), params, r, steps_fd, columns, rows)
-        # Levenberg-Marquardt: a state the window does not pin down (a body at rest) keeps its value
-        jtj = np.einsum("ij,ik->jk", jac, jac)
-        damped = jtj + np.diag(1e-3 * np.diag(jtj) + 1e-6)
-        limit = _ANCHOR_STEP_LIMIT[:params.size]
-        step = np.clip(np.linalg.solve(damped, -np.einsum("ij,i->j", jac, r)), -limit, limit)
-        improved = False
-        for alpha in (1.0, 0.5, 0.25, 0.1):
-            trial = _physical(probe, traj, start, movers, params + alpha * step, allowed)
-            run_t = run_at(trial)
-            rt = residual_of(run_t)
-            ct = float(rt @ rt)
-            if ct < cost:
-                params, r, cost, run, improved = trial, rt, ct, run_t, True
+    def jacobian(self, params: np.ndarray, run: RawRun, r: np.ndarray) -> np.ndarray:
+        """Forward differences of the residual at ``params``: the states of movers that stay apart in ``run`` are
+        nudged in the same run."""
+        groups = _uid_groups(run, [b for b in self.world.bodies if b.dynamic])
+        columns = [groups[uid] for uid in self.movers for _k in range(SIZE)]
+        rows = np.array([groups[self.start_fit.uids[s]] for s in _row_slots(self.observed, self.shown.size)], dtype=int)
+        steps_fd = np.tile(_ANCHOR_FD_STEP, len(self.movers))
+        return forward_jacobian(lambda p: self.residual_of(self.run_at(p)), params, r, steps_fd, columns, rows)
+
+    def fit(self) -> dict[int, np.ndarray] | None:
+        """The fitted offsets of each mover; None when they follow the window no better than no offset."""
+        params = np.zeros(SIZE * len(self.movers))
+        run = self.run_at(params)
+        r = self.residual_of(run)
+        cost = float(r @ r)
+        before = cost
+        for _ in range(ANCHOR_ITERATIONS):
+            step = _damped_step(self.jacobian(params, run, r), r, _ANCHOR_STEP_LIMIT[:params.size])
+            improved = False
+            for alpha in ANCHOR_STEP_SCALES:
+                trial = _physical(self.probe, self.traj, self.start, self.movers, params + alpha * step, self.allowed)
+                run_t = self.run_at(trial)
+                rt = self.residual_of(run_t)
+                ct = float(rt @ rt)
+                if ct < cost:
+                    params, r, cost, run, improved = trial, rt, ct, run_t, True
+                    break
+            if not improved:
                 break
-        if not improved:
-            break
-    if cost >= before:
-        return None
-    offsets = {uid: params[6 * i:6 * i + 6] for i, uid in enumerate(movers)}
-    tail = eng.run(_state_world(world, traj, start, offsets), steps - start)
-    raw = stitch(sim.raw, tail, start)
-    return LiveSimulation(world, raw, eng, meta=dict(sim.meta, anchors=sim.meta.get("anchors", 0) + 1))
+        if cost >= before:
+            return None
+        return _offsets(self.movers, params)
+
+
+def _damped_step(jac: np.ndarray, r: np.ndarray, limit: np.ndarray) -> np.ndarray:
+    """The Levenberg-Marquardt step lowering ``r`` (damped by :data:`ANCHOR_DAMPING`), each component within
+    ``limit``."""
+    jtj = np.einsum("ij,ik->jk", jac, jac)
+    damped = jtj + np.diag(ANCHOR_DAMPING * np.diag(jtj) + ANCHOR_DAMPING_FLOOR)
+    return np.clip(np.linalg.solve(damped, -np.einsum("ij,i->j", jac, r)), -limit, limit)
 
 
 def _physical(probe: GeometryProbe, traj: Trajectory, start: int, movers: Sequence[int], params: np.ndarray,
               allowed: np.ndarray) -> np.ndarray:
-    """``params`` (restart offsets of ``movers``, 6 each) with the pose offset (position, angle) of each mover that
-    would overlap the others deeper than ``allowed`` scaled back towards zero until it does not (bisection)."""
+    """``params`` (restart offsets of ``movers``, :data:`SIZE` each) with the pose offset (position, angle) of each
+    mover that would overlap the others deeper than ``allowed`` scaled back towards zero until it does not
+    (bisection)."""
     params = params.copy()
 
     def depth(i: int, scale: float) -> float:
         trial = params.copy()
-        trial[6 * i:6 * i + 3] *= scale
-        _place(probe, traj, start, {uid: trial[6 * j:6 * j + 6] for j, uid in enumerate(movers)})
+        pose(trial, i)[:] *= scale
+        _place(probe, traj, start, _offsets(movers, trial))
         return float(probe.overlap_depths([movers[i]])[0])
 
     for i in range(len(movers)):
@@ -854,7 +902,7 @@ def _physical(probe: GeometryProbe, traj: Trajectory, start: int, movers: Sequen
         for _ in range(OVERLAP_BISECTIONS):
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if depth(i, mid) <= allowed[i] else (lo, mid)
-        params[6 * i:6 * i + 3] *= lo
+        pose(params, i)[:] *= lo
     return params
 
 
