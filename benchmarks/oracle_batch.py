@@ -9,7 +9,14 @@ Three workloads, each printed in programs per second and as a ratio to the origi
 * **sampled, one simulation**: 1,000 prefix token sequences over one simulation, drawn the way a half-trained
   parser samples (see :func:`sample_programs`), for each of several simulations;
 * **sampled, many simulations**: S simulations (1,000 by default, loaded from the recorded files in turn, each
-  a separate object with its own caches) x 8 sampled programs of one of its questions, as one batch.
+  a separate object with its own caches) x 8 sampled programs of one of its questions, as one batch;
+* **edited node lists**: every template node list of every simulation, 8 times, 7 of the 8 copies with one
+  random edit (a module renamed, an input index changed, an argument dropped: see :func:`edit_nodes`), as one
+  batch; also the unedited lists alone and the renamed-module copies alone (an error costs no more than an
+  answer: their ratio >= 1);
+* **duplicates**: the unedited node lists once, and 8 equal copies of each (other list objects, as a sampler
+  gives them) in a row, as one batch: the 8-copy batch's rate over the one-copy batch's (>= 6x: a duplicate
+  costs nearly nothing); also the same list object 8 times.
 
 The original engine runs the node lists of the sampled programs that type-check and return an answer type (it
 has no checker: the others are given to it for free); its rate is those programs per second. Our rate is the
@@ -26,12 +33,13 @@ whole benchmark once per hash seed 1..N, each in its own process, and prints eac
 highest ratio over them.
 
 Targets: sampled on one simulation >= 20x, 1,000 simulations x 8 >= 8x, fresh template programs as node lists
->= 3x, as tokens and text >= 2x.
+>= 3x, as tokens and text >= 2x, edited node lists >= 8x, errors / answers >= 1, 8 copies / one copy >= 6x.
 """
 
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import os
 import random
@@ -50,6 +58,7 @@ from original_engine import OriginalScene, answer_question
 from craft_dsl import CraftError, Program, Simulation, load_simulation
 from craft_dsl.oracle import run_batch
 from craft_dsl.oracle.outcome import check_outcome
+from craft_dsl.registry import REGISTRY
 from craft_dsl.templates import first_instances
 from craft_dsl.tokens import program_vocabulary
 from craft_dsl.vocabulary import COLORS, SHAPES, SIZES
@@ -96,6 +105,33 @@ def sample_programs(gold: Sequence[str], n: int, rng: random.Random) -> list[lis
                     tokens.insert(pos, rng.choice(VOCABULARY))
         out.append(tokens)
     return out
+
+
+#: The edits of :func:`edit_nodes`.
+NODE_EDITS = ("rename", "input", "drop")
+
+
+def edit_nodes(nodes: Sequence[dict[str, Any]], edit: str, rng: random.Random) -> list[dict[str, Any]]:
+    """A copy of a node list with one random edit at a uniformly drawn node: ``rename`` its module to another
+    module's name, ``input`` changes one of its input indexes to another index below the list's length, ``drop``
+    deletes one of its arguments (an input or a side input; a node with none is renamed instead)."""
+    out = [dict(node, inputs=list(node["inputs"]), value_inputs=list(node.get("value_inputs", [])))
+           for node in nodes]
+    node = out[rng.randrange(len(out))]
+    args = [("inputs", k) for k in range(len(node["inputs"]))] + [
+        ("value_inputs", k) for k in range(len(node["value_inputs"]))]
+    if edit == "input" and node["inputs"] and len(out) > 1:
+        k = rng.randrange(len(node["inputs"]))
+        node["inputs"][k] = rng.choice([j for j in range(len(out)) if j != node["inputs"][k]])
+    elif edit == "drop" and args:
+        key, k = rng.choice(args)
+        del node[key][k]
+    else:
+        node["type"] = rng.choice([name for name in MODULE_NAMES if name != node["type"]])
+    return out
+
+
+MODULE_NAMES = sorted(REGISTRY)
 
 
 def clear_caches(sims: Sequence[Simulation]) -> None:
@@ -275,10 +311,63 @@ def main() -> int:
     print(f"  original engine: {theirs:,.0f} programs/s   run_batch: {ours:,.0f} programs/s   "
           f"{ours / theirs:.2f}x   target >= 8x")
     figures[f"{s_count} simulations x 8"] = ours / theirs
+    edited_workloads(args, rng, sims, scenes, questions, figures)
     if args.json:
         Path(args.json).write_text(json.dumps({"hash_seed": os.environ.get("PYTHONHASHSEED"), "ratios": figures,
                                                "targets": {k: target_of(k) for k in figures}}, indent=1))
     return 0
+
+
+def edited_workloads(args: argparse.Namespace, rng: random.Random, sims: Sequence[Simulation],
+                     scenes: Sequence[OriginalScene], questions: Sequence[Sequence[Program]],
+                     figures: dict[str, float]) -> None:
+    """The edited node lists and duplicates workloads (see the module docstring)."""
+    gold: list[tuple[Simulation, OriginalScene, list[dict[str, Any]]]] = [
+        (sim, scene, p.to_nodes()) for sim, scene, ps in zip(sims, scenes, questions) for p in ps]
+    edited: list[tuple[Simulation, OriginalScene, list[dict[str, Any]], str]] = []
+    for sim, scene, nodes in gold:
+        edited.append((sim, scene, nodes, "none"))
+        edited.extend((sim, scene, edit_nodes(nodes, e, rng), e) for e in (rng.choice(NODE_EDITS) for _ in range(7)))
+    batch = [x[2] for x in edited]
+    batch_sims = [x[0] for x in edited]
+    result = run_batch(batch, batch_sims, form="nodes")
+    orig_work = [(scene, nodes) for (_s, scene, nodes, _e), code in zip(edited, result.kinds)
+                 if code in ("answer", "invalid")]
+    once = [x[2] for x in gold]
+    once_sims = [x[0] for x in gold]
+    eight = [copy.deepcopy(n) for n in once for _ in range(8)]  # equal lists, other objects (as sampled)
+    same = [n for n in once for _ in range(8)]
+    eight_sims = [s for s in once_sims for _ in range(8)]
+    renamed = [x[2] for x in edited if x[3] == "rename"]
+    renamed_sims = [x[0] for x in edited if x[3] == "rename"]
+    fresh = lambda: clear_caches(sims)  # noqa: E731
+    times = best_times({
+        "original": (lambda: [run_original(scene, x) for scene, x in orig_work], None),
+        "edited": (lambda: run_batch(batch, batch_sims, form="nodes"), fresh),
+        "once": (lambda: run_batch(once, once_sims, form="nodes"), fresh),
+        "eight": (lambda: run_batch(eight, eight_sims, form="nodes"), fresh),
+        "same": (lambda: run_batch(same, eight_sims, form="nodes"), fresh),
+        "renamed": (lambda: run_batch(renamed, renamed_sims, form="nodes"), fresh)}, args.repeat)
+    base = len(orig_work) / times["original"]
+    rates = {"edited": len(batch) / times["edited"], "once": len(once) / times["once"],
+             "eight": len(eight) / times["eight"], "same": len(same) / times["same"],
+             "renamed": len(renamed) / times["renamed"]}
+    counts = result.counts()
+    print(f"\nedited node lists: {len(gold)} template node lists x 8, 7 of 8 edited; {len(batch)} programs, "
+          f"{counts['answer'] + counts['invalid']} valid; best of {args.repeat} interleaved passes")
+    print(f"  {'path':44} {'programs/s':>11} {'x original':>10}")
+    row("original engine (valid node lists)", len(orig_work), times["original"], base)
+    row("run_batch, edited node lists", len(batch), times["edited"], base, target_of("edited node lists"))
+    row("run_batch, unedited, one copy", len(once), times["once"], base)
+    row("run_batch, unedited, 8 equal copies each", len(eight), times["eight"], base)
+    row("run_batch, unedited, the same list 8 times", len(same), times["same"], base)
+    row("run_batch, renamed-module copies only", len(renamed), times["renamed"], base)
+    figures["edited node lists"] = rates["edited"] / base
+    figures["errors / answers"] = rates["renamed"] / rates["once"]
+    figures["8 copies / one copy"] = rates["eight"] / rates["once"]
+    print(f"  renamed-module copies / unedited: {figures['errors / answers']:.2f}   target >= 1")
+    print(f"  8 copies / one copy: {figures['8 copies / one copy']:.2f}x   target >= 6x   (the same list 8 times: "
+          f"{rates['same'] / rates['once']:.2f}x)")
 
 
 def target_of(figure: str) -> float | None:
@@ -287,8 +376,12 @@ def target_of(figure: str) -> float | None:
         return 3.0 if figure.startswith("fresh nodes") else 2.0
     if figure.startswith("one simulation (b)"):
         return 20.0
-    if figure.endswith("simulations x 8"):
+    if figure.endswith("simulations x 8") or figure == "edited node lists":
         return 8.0
+    if figure == "errors / answers":
+        return 1.0
+    if figure == "8 copies / one copy":
+        return 6.0
     return None
 
 

@@ -28,10 +28,11 @@ Where = Position | tuple[str, int] | None
 
 _OBJECT, _OBJECT_SET = DslType.OBJECT, DslType.OBJECT_SET
 #: Exact spellings accepted as side-input values, per type (the canonical words and the aliases).
-_VALUES: dict[DslType, dict[str, str]] = {
+VALUES: dict[DslType, dict[str, str]] = {
     t: {**{a: c for a, c in VALUE_ALIASES.items() if c in words}, **{w: w for w in words}}
     for t, words in VOCABULARY.items()
 }
+_VALUES = VALUES
 
 
 def where(pos: Where) -> dict[str, Any]:
@@ -44,12 +45,16 @@ def where(pos: Where) -> dict[str, Any]:
     return {"line": a, "column": b}
 
 
+def canonical_or_none(value: str, expected: DslType) -> str | None:
+    """A side-input value ("Small", "Yellow", "block") in the vocabulary's words, or None where it is not one."""
+    table = VALUES[expected]
+    found = table.get(value)
+    return found if found is not None else table.get(value.strip().lower())
+
+
 def canonical_value(value: str, expected: DslType, module: str, index: int, pos: Where) -> str:
     """Normalise a side-input value ("Small", "Yellow", "block") to the vocabulary, or raise."""
-    table = _VALUES[expected]
-    found = table.get(value)
-    if found is None:
-        found = table.get(value.strip().lower())
+    found = canonical_or_none(value, expected)
     if found is not None:
         return found
     raise SideInputError(
@@ -82,12 +87,16 @@ def arity_error(spec: ModuleSpec, found: int, pos: Where) -> TypeCheckError:
 
 #: How a call checks, per (module name, *input types): (overload index, output type, inputs to wrap in Unique).
 #: The key is flat (no nested tuple of types) so that building it costs one tuple on the hot path.
-_Resolution = tuple[int, DslType, tuple[int, ...]]
-_RESOLUTIONS: dict[tuple[Any, ...], _Resolution] = {}
+Resolution = tuple[int, DslType, tuple[int, ...]]
+RESOLUTIONS: dict[tuple[Any, ...], Resolution] = {}
+_RESOLUTIONS = RESOLUTIONS
+#: The (module name, *input types) that no overload accepts.
+_NO_OVERLOAD: set[tuple[Any, ...]] = set()
 
 
-def _resolve_overload(spec: ModuleSpec, types: tuple[DslType, ...]) -> _Resolution | None:
-    """Exact matches first, then matches that need Unique around an object set (cached per input types)."""
+def resolve_overload(spec: ModuleSpec, types: tuple[DslType, ...]) -> Resolution | None:
+    """Exact matches first, then matches that need Unique around an object set (cached per input types in
+    :data:`RESOLUTIONS`); None where no overload fits."""
     for allow_unique in (False, True):
         for k, ov in enumerate(spec.overloads):
             wrap = []
@@ -101,9 +110,27 @@ def _resolve_overload(spec: ModuleSpec, types: tuple[DslType, ...]) -> _Resoluti
             else:
                 found = (k, ov.output, tuple(wrap))
                 key = (spec.name, *types)
-                _RESOLUTIONS[key] = found
+                RESOLUTIONS[key] = found
                 return found
     return None
+
+
+_resolve_overload = resolve_overload
+_INPUT_TYPES: dict[tuple[str, int], frozenset[DslType]] = {}
+
+
+def literal_type(spec: ModuleSpec, index: int, value: Value) -> DslType | None:
+    """The type of the literal :meth:`ProgramBuilder.input_literal` makes of ``value`` as input ``index`` of
+    ``spec``, or None where it raises."""
+    if isinstance(value, int):
+        return DslType.INTEGER
+    expected = _INPUT_TYPES.get((spec.name, index))
+    if expected is None:
+        expected = _INPUT_TYPES[(spec.name, index)] = frozenset(ov.inputs[index] for ov in spec.overloads)
+    if len(expected) != 1:
+        return None
+    (typ,) = expected
+    return typ if typ in SIDE_INPUT_TYPES and canonical_or_none(value, typ) is not None else None
 
 
 class ProgramBuilder:
@@ -114,12 +141,15 @@ class ProgramBuilder:
         self.nodes: list[RawNode] = []
         self._index: dict[RawNode, int] = {}
 
-    def _add(self, node: RawNode) -> int:
+    def add(self, node: RawNode) -> int:
+        """The index of ``node`` in :attr:`nodes`, added if it is not there yet (no check)."""
         nodes = self.nodes
         found = self._index.setdefault(node, len(nodes))  # one hash of the node, where get-then-set takes two
         if found == len(nodes):
             nodes.append(node)
         return found
+
+    _add = add
 
     def literal(self, value: Value, typ: DslType) -> int:
         """A literal node (an integer, or a canonical colour/shape/size)."""
@@ -142,57 +172,73 @@ class ProgramBuilder:
             found="quoted value", **where(pos),
         )
 
-    def call(self, spec: ModuleSpec, inputs: Sequence[int], sides: Sequence[Value],
-             pos: Where = None, input_pos: Sequence[Where] = (), side_pos: Sequence[Where] = ()) -> int:
-        """Check one call of ``spec`` on input nodes and side-input values; return its node index.
-
-        The caller has checked the number of inputs and side inputs.
-        """
+    def try_call(self, spec: ModuleSpec, inputs: Sequence[int], sides: Sequence[Value]) -> int | None:
+        """What :meth:`call` gives, or None where it raises: found without raising, with the same resolution,
+        value tables and node. The caller has checked the numbers of inputs and side inputs."""
         nodes = self.nodes
         name = spec.name
         n = len(inputs)
         if n == 1:
-            res = _RESOLUTIONS.get((name, nodes[inputs[0]][3]))
+            key: tuple[Any, ...] = (name, nodes[inputs[0]][3])
         elif n == 2:
-            res = _RESOLUTIONS.get((name, nodes[inputs[0]][3], nodes[inputs[1]][3]))
+            key = (name, nodes[inputs[0]][3], nodes[inputs[1]][3])
         elif n == 0:
-            res = _RESOLUTIONS.get((name,))
+            key = (name,)
         else:
-            res = _RESOLUTIONS.get((name, *[nodes[i][3] for i in inputs]))
+            key = (name, *[nodes[i][3] for i in inputs])
+        res = RESOLUTIONS.get(key)
         if res is None:
-            types = tuple([nodes[i][3] for i in inputs])
-            res = _resolve_overload(spec, types)
+            if key in _NO_OVERLOAD:
+                return None
+            res = resolve_overload(spec, key[1:])
             if res is None:
-                raise self._overload_error(spec, types, pos, input_pos)
-        overload, output, wrap = res
-        if wrap:
-            ids = list(inputs)
-            for k in wrap:
-                ids[k] = self._add(("Unique", (ids[k],), (), _OBJECT, 0))
-            inputs = ids
+                _NO_OVERLOAD.add(key)
+                return None
         values: tuple[Value, ...] = ()
         if sides:
             if len(sides) == 1:
                 value = sides[0]
-                expected = spec.side_inputs[0]
-                found = _VALUES[expected].get(value) if type(value) is str else None
+                found = canonical_or_none(value, spec.side_inputs[0]) if isinstance(value, str) else None
                 if found is None:
-                    found = self._side_value(spec, n + 1, value, expected, side_pos[0] if side_pos else pos)
+                    return None
                 values = (found,)
             else:
                 checked: list[Value] = []
-                for k, (value, expected) in enumerate(zip(sides, spec.side_inputs)):
-                    found = _VALUES[expected].get(value) if type(value) is str else None
+                for value, expected in zip(sides, spec.side_inputs):
+                    found = canonical_or_none(value, expected) if isinstance(value, str) else None
                     if found is None:
-                        found = self._side_value(spec, n + k + 1, value, expected,
-                                                 side_pos[k] if k < len(side_pos) else pos)
+                        return None
                     checked.append(found)
                 values = tuple(checked)
+        overload, output, wrap = res
+        if wrap:
+            ids = list(inputs)
+            for k in wrap:
+                ids[k] = self.add(("Unique", (ids[k],), (), _OBJECT, 0))
+            inputs = ids
         node: RawNode = (name, tuple(inputs), values, output, overload)
         found_id = self._index.setdefault(node, len(nodes))
         if found_id == len(nodes):
             nodes.append(node)
         return found_id
+
+    def call(self, spec: ModuleSpec, inputs: Sequence[int], sides: Sequence[Value],
+             pos: Where = None, input_pos: Sequence[Where] = (), side_pos: Sequence[Where] = ()) -> int:
+        """Check one call of ``spec`` on input nodes and side-input values; return its node index, or raise
+        the error :meth:`try_call` finds (the first in argument order).
+
+        The caller has checked the number of inputs and side inputs.
+        """
+        found = self.try_call(spec, inputs, sides)
+        if found is not None:
+            return found
+        types = tuple([self.nodes[i][3] for i in inputs])
+        if resolve_overload(spec, types) is None:
+            raise self._overload_error(spec, types, pos, input_pos)
+        n = len(inputs)
+        for k, (value, expected) in enumerate(zip(sides, spec.side_inputs)):
+            self._side_value(spec, n + k + 1, value, expected, side_pos[k] if k < len(side_pos) else pos)
+        raise AssertionError("try_call refused a call that checks")  # pragma: no cover
 
     @staticmethod
     def _side_value(spec: ModuleSpec, argument: int, value: Value, expected: DslType, pos: Where) -> str:

@@ -36,7 +36,8 @@ TokenOrder = Literal["prefix", "postfix"]
 NameStyle = Literal["canonical", "original"]
 ORDERS: tuple[str, ...] = ("prefix", "postfix")
 
-_INT = re.compile(r"-?\d+\Z")
+#: An integer token (``-1``, ``3``): the spelling of an integer literal among the tokens.
+INTEGER_TOKEN = re.compile(r"-?\d+\Z")
 _FUSED = re.compile(r"([A-Za-z_][A-Za-z0-9_]*)\[([^\[\]]*)\]\Z")
 #: Integer literal tokens listed in vocabularies (state indexes of FilterMoving/FilterStationary).
 VOCABULARY_INTEGERS: tuple[str, ...] = ("0", "-1")
@@ -104,7 +105,7 @@ class _Token:
             self.name = fused.group(1)
             self.spec = NAMES[self.name]
             self.fused = [v.strip() for v in fused.group(2).split(",")] if fused.group(2).strip() else []
-        elif _INT.match(text):
+        elif INTEGER_TOKEN.match(text):
             try:
                 self.value = integer_literal(text)
             except ValueError as err:
@@ -294,11 +295,15 @@ def _read_postfix(builder: ProgramBuilder, toks: Iterator[_Token], sources: list
 # anything else (integers, other spellings, every error) goes through the readers above, which decide and word
 # the errors. The tests check both ways give the same programs.
 
-_Kind = tuple[ModuleSpec, bool, tuple[str, ...] | None] | str
-_KINDS: dict[str, _Kind] = {}
+#: What an exact token spelling is: a value word (the word itself), or a module as (spec, whether its inputs come
+#: in the original name's order, the side inputs fused into the token as ``name[value]`` or None).
+TokenKind = tuple[ModuleSpec, bool, tuple[str, ...] | None] | str
+_KINDS: dict[str, TokenKind] = {}
 
 
-def _kinds() -> dict[str, _Kind]:
+def token_kinds() -> dict[str, TokenKind]:
+    """Every exact token spelling (module names canonical and original, fused ``name[value]`` tokens, value
+    words) and what it is (see :data:`TokenKind`); other spellings are read by the general token reader."""
     if not _KINDS:
         for name, spec in NAMES.items():
             reorder = name != spec.name and spec.original_order is not None
@@ -313,7 +318,7 @@ def _kinds() -> dict[str, _Kind]:
 
 
 def _fast_read(words: list[str], prefix: bool) -> CheckedProgram | None:
-    kinds = _KINDS or _kinds()
+    kinds = _KINDS or token_kinds()
     builder = ProgramBuilder()
     sources: list[int] = []
     frames: list[list[Any]] = []  # open calls (prefix order), see _open
@@ -382,19 +387,20 @@ def _give(builder: ProgramBuilder, frame: list[Any], arg: int | str) -> bool:
 def _build(builder: ProgramBuilder, frame: list[Any], sources: list[int]) -> int:
     spec, reorder, ids, sides, source = frame[:5]
     if reorder:
-        ids = [ids[j] for j in _ORIGINAL_TO_OURS[spec.name]]
+        ids = [ids[j] for j in ORIGINAL_TO_OURS[spec.name]]
     node = builder.call(spec, ids, sides)
     sources[source] = node
     return node
 
 
-_ORIGINAL_TO_OURS: dict[str, list[int]] = {}
+#: Per module with an original argument order: ``ours[k] = original[ORIGINAL_TO_OURS[name][k]]``.
+ORIGINAL_TO_OURS: dict[str, list[int]] = {}
 for _spec in MODULES:
     if _spec.original_order is not None:
         _inverse = [0] * len(_spec.original_order)
         for _original_pos, _ours in enumerate(_spec.original_order):
             _inverse[_ours] = _original_pos
-        _ORIGINAL_TO_OURS[_spec.name] = _inverse
+        ORIGINAL_TO_OURS[_spec.name] = _inverse
 
 
 # -- vocabularies -------------------------------------------------------------------------------------------

@@ -13,7 +13,8 @@ SCRIPT = Path(__file__).resolve().parents[1] / "benchmarks" / "oracle_batch.py"
 TINY = ["--sims", "1", "--sampled-sims", "3", "--samples", "30", "--one-sim-batches", "1", "--repeat", "1"]
 FIGURES = {"fresh nodes, one batch": 3.0, "fresh prefix, one batch": 2.0, "fresh postfix, one batch": 2.0,
            "fresh text, one batch": 2.0, "one simulation (a), median": None, "one simulation (b), median": 20.0,
-           "3 simulations x 8": 8.0}
+           "3 simulations x 8": 8.0, "edited node lists": 8.0, "errors / answers": 1.0,
+           "8 copies / one copy": 6.0}
 
 
 def test_the_ratios_and_their_targets_are_written(tmp_path: Path) -> None:

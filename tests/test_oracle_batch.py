@@ -176,6 +176,71 @@ def test_repeated_node_lists_hit_the_node_memo_as_alone(sims: list[Simulation]) 
     assert counts["syntax_error"] and counts["type_error"] and counts["answer"], counts
 
 
+def _one_edit(nodes: list[dict[str, Any]], rng: random.Random) -> list[dict[str, Any]]:
+    """A copy of ``nodes`` with one random edit: a module renamed (to another module, an original name or no
+    module), an input index changed (to any index, a later or negative one included), an argument dropped (an
+    input or a side input), or the side inputs written as null or left out."""
+    import copy
+
+    out = copy.deepcopy(nodes)
+    node = out[rng.randrange(len(out))]
+    edit = rng.choice(("rename", "input", "drop input", "drop side", "null sides", "no sides"))
+    if edit == "input" and node["inputs"]:
+        node["inputs"][rng.randrange(len(node["inputs"]))] = rng.randrange(-1, len(out) + 1)
+    elif edit == "drop input" and node["inputs"]:
+        del node["inputs"][rng.randrange(len(node["inputs"]))]
+    elif edit == "drop side" and node["value_inputs"]:
+        del node["value_inputs"][0]
+    elif edit == "null sides":
+        node["value_inputs"] = None
+    elif edit == "no sides":
+        del node["value_inputs"]
+    else:
+        node["type"] = rng.choice([*NAMES, "filter_red", "Count"])
+    return out
+
+
+def test_duplicated_and_edited_node_lists_as_alone(sims: list[Simulation], monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every template node list 8 times over two simulations, 7 of the 8 with one edit, each program then
+    repeated as the same list and as an equal copy: the outcomes are those of each program alone, and each
+    distinct list is read once however often the batch holds it."""
+    import copy
+
+    from craft_dsl.oracle.batch import _Batch
+
+    rng = random.Random(11)
+    programs: list[Any] = []
+    on: list[Simulation] = []
+    for sim in sims[:2]:
+        for _t, _p, p, _a in first_instances(sim, include_dropped=True):
+            gold = p.to_nodes()
+            for copy_k in range(8):
+                program = gold if copy_k == 0 else _one_edit(gold, rng)
+                programs += [program, program, copy.deepcopy(program)]
+                on += [sim] * 3
+            chained = [k for k, node in enumerate(gold) if node["inputs"] == [1]]
+            for k in chained[:1]:  # equal under == to the gold, not the same program: not its duplicate
+                for index in (True, 1.0):
+                    odd = copy.deepcopy(gold)
+                    odd[k]["inputs"] = [index]
+                    programs += [odd, odd, copy.deepcopy(odd)]
+                    on += [sim] * 3
+    read: list[int] = []
+    original = _Batch.read_node_lists_all
+
+    def counting(self: _Batch, lists: Sequence[Any]) -> list[int | None]:
+        read.append(len(lists))
+        return original(self, lists)
+
+    monkeypatch.setattr(_Batch, "read_node_lists_all", counting)
+    result = assert_same(programs, on, "nodes")
+    assert read == [len({repr(x) for x in programs})]  # equal lists have equal reprs here (1.0 and 1 do not)
+    counts = result.counts()
+    assert all(counts.values()), counts
+    codes = result.codes.tolist()
+    assert all(codes[i] == codes[i + 1] == codes[i + 2] for i in range(0, len(codes), 3))
+
+
 @pytest.mark.parametrize("order", ["prefix", "postfix"])
 def test_token_list_batches_as_alone(sims: list[Simulation], order: str) -> None:
     """Batches of token lists only (read in single passes over the batch) with tokens the batch reader leaves to
@@ -396,9 +461,10 @@ def test_results_do_not_depend_on_the_batch(sims: list[Simulation]) -> None:
 
 
 def test_nothing_outlives_a_batch(sims: list[Simulation]) -> None:
-    """The node table, memos and node values go with the call (the module keeps only its tables of token kinds
+    """The node table, memos and node values go with the call (the checker keeps only its tables of token kinds
     and of type combinations no overload accepts, which stop growing), and a batch's peak memory grows with
     the batch."""
+    from craft_dsl import checker
     from craft_dsl.oracle import batch as batch_module
 
     rng = random.Random(5)
@@ -406,7 +472,7 @@ def test_nothing_outlives_a_batch(sims: list[Simulation]) -> None:
     golds = [p.to_tokens() for _t, _p, p, _a in first_instances(sim, include_dropped=True)]
     batch = [token_edits(rng.choice(golds), rng) for _ in range(3000)]
     run_batch(batch, sim, form="prefix")
-    tables = (len(batch_module._NO_OVERLOAD), len(batch_module._INPUT_TYPES))
+    tables = (len(checker._NO_OVERLOAD), len(checker._INPUT_TYPES), len(checker.RESOLUTIONS))
     tracemalloc.start()
     try:
         run_batch(batch, sim, form="prefix")
@@ -417,5 +483,5 @@ def test_nothing_outlives_a_batch(sims: list[Simulation]) -> None:
     finally:
         tracemalloc.stop()
     assert small < big * 0.6, (small, big)
-    assert (len(batch_module._NO_OVERLOAD), len(batch_module._INPUT_TYPES)) == tables
+    assert (len(checker._NO_OVERLOAD), len(checker._INPUT_TYPES), len(checker.RESOLUTIONS)) == tables
     assert not [o for o in gc.get_objects() if type(o) is batch_module._Batch]

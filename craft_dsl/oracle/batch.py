@@ -7,7 +7,8 @@ The work the programs share is done once:
 
 * programs are read into one hash-consed node table for the whole batch (:class:`~craft_dsl.checker.ProgramBuilder`):
   a call is checked once per distinct (module token, argument) combination, however many programs contain it,
-  and a program written twice in the same form is read once;
+  and a program written twice in the same form is read once (node lists: equal lists, by
+  :func:`node_list_key`);
 * every node the batch's programs need is evaluated once per simulation, so shared sub-programs
   (``SceneAtStart()``, ``FilterColor(..., "red")``, ``Events()`` and its filters) cost one evaluation per
   simulation; counterfactual event sets are computed once per (simulation, removed object) by the
@@ -17,7 +18,8 @@ The work the programs share is done once:
   text with ``Var`` bindings or with errors) is read by the single-program readers, through a
   :class:`~craft_dsl.oracle.ProgramCache`, and its nodes join the same table.
 
-Errors are told apart without building their messages: prefix tokens are read right to left on a stack of
+Errors are told apart without building their messages, by the checker's non-raising
+:meth:`~craft_dsl.checker.ProgramBuilder.try_call`: prefix tokens are read right to left on a stack of
 complete terms, which gives the syntax/type verdict of the left-to-right reader (the first error in reading
 order decides); postfix tokens and node lists are read in their own order and stop at the first error.
 
@@ -28,6 +30,7 @@ the batch. Simulations keep their own caches (counterfactual runs, event filters
 from __future__ import annotations
 
 import gc
+import marshal
 import re
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -35,7 +38,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from ..checker import _RESOLUTIONS, _VALUES, ProgramBuilder, _resolve_overload
+from ..checker import RESOLUTIONS, VALUES, ProgramBuilder, literal_type
 from ..errors import (
     CounterfactualUnavailable,
     CraftError,
@@ -43,12 +46,11 @@ from ..errors import (
     ProgramError,
 )
 from ..ir import RawNode, Value
-from ..nodes import _SHAPES as _NODE_SHAPES
 from ..parser import Frame, GiveUp, scan_calls
-from ..registry import IMPLS, ModuleSpec
+from ..registry import IMPLS, NAMES, ModuleSpec
 from ..simulation import Simulation
-from ..tokens import _INT, _ORIGINAL_TO_OURS, _kinds
-from ..types import INVALID, SIDE_INPUT_TYPES, DslType, integer_literal
+from ..tokens import INTEGER_TOKEN, ORIGINAL_TO_OURS, token_kinds
+from ..types import INVALID, integer_literal
 from .forms import FORMS, ProgramCache, ProgramForm
 from .outcome import ANSWER_TYPES, OUTCOMES, check_outcome
 
@@ -59,14 +61,24 @@ INVALID_ANSWER = OUTCOMES.index("invalid")
 ANSWER = OUTCOMES.index("answer")
 
 # Stack items of the token readers: a node index (>= 0), a value token (its text), or one of these markers.
-_TYPE_ERR = -1  # a complete term with a type error in it
+_TYPE_ERR = -1  # a complete term with a type error in it (also: a memo's node with a type error)
 _OPEN_OK = -2  # prefix only: the tokens left of here start a term the sequence never completes, no type error so far
 _OPEN_ERR = -3  # the same, with a type error in what was read of it
+_SYNTAX_ERR = -4  # node lists: a memo's node with a syntax error (an unknown name, too many or too few inputs)
 Item = int | str
-# What reading one program gives: a node index (>= 0), one of these codes, or None (read it alone).
+# What reading one program gives: a node index (>= 0), one of these verdicts, or None (read it alone).
 _SYNTAX = -10
 _TYPE = -11
 _UNREAD = -12  # node lists: a node the batch reader leaves to the single-program reader
+#: A node-list memo's marker -> the program's verdict.
+_NODE_VERDICTS: dict[int, int | None] = {_TYPE_ERR: _TYPE, _SYNTAX_ERR: _SYNTAX, _UNREAD: None}
+
+# Entry codes of the prefix reader (:data:`_Word`): what a token of the exact-spelling table is. A module of
+# three or more arguments has its number of arguments as its code.
+_VALUE_WORD = -1  # a value word (or integer): pushed as it is
+_NULLARY = 0  # a module of no argument: its node, made once
+_UNARY = 1  # a module of one argument: its memo by argument
+_BINARY = 2  # a module of two arguments: its memo by (first, second) argument
 
 #: Per exact token: a value word (the word), or a module as (number of arguments, spec, input order of an
 #: original name or None, fused side inputs).
@@ -77,28 +89,28 @@ _TOKEN_KINDS: dict[str, _TokenKind | str] = {}
 def _token_kinds() -> dict[str, _TokenKind | str]:
     """The exact token spellings :func:`craft_dsl.tokens.check_tokens` reads on its fast path."""
     if not _TOKEN_KINDS:
-        for token, kind in _kinds().items():
+        for token, kind in token_kinds().items():
             if isinstance(kind, str):
                 _TOKEN_KINDS[token] = kind
                 continue
             spec, reorder, fused = kind
             n_args = spec.n_inputs + (0 if fused else len(spec.side_inputs))
-            order = tuple(_ORIGINAL_TO_OURS[spec.name]) if reorder else None
+            order = tuple(ORIGINAL_TO_OURS[spec.name]) if reorder else None
             _TOKEN_KINDS[token] = (n_args, spec, order, fused or ())
     return _TOKEN_KINDS
 
 
-#: A prefix token's entry in a batch: (number of arguments or -1 for a value, memo, kind). The memo is the
+#: A prefix token's entry in a batch: (entry code, memo, kind). The memo is the
 #: item per argument (one argument), per pair of arguments (two), the call's item itself (none), or None.
 _Word = tuple[int, Any, _TokenKind]
 
-#: Per exact token: its number of arguments (modules) or -1 (values).
+#: Per exact token: its number of arguments (modules) or :data:`_VALUE_WORD` (values).
 _ARITY: dict[str, int] = {}
 
 
 def _token_arity() -> dict[str, int]:
     if not _ARITY:
-        _ARITY.update({t: -1 if isinstance(k, str) else k[0] for t, k in _token_kinds().items()})
+        _ARITY.update({t: _VALUE_WORD if isinstance(k, str) else k[0] for t, k in _token_kinds().items()})
     return _ARITY
 
 
@@ -174,14 +186,14 @@ class _Batch:
     def __init__(self) -> None:
         self.builder = ProgramBuilder()
         self.nodes = self.builder.nodes
-        self._add: Callable[[RawNode], int] = self.builder._add
+        self._add: Callable[[RawNode], int] = self.builder.add
         self.token_memo: dict[Any, Item] = {}
         #: Modules of one argument: per token, the memo by argument (cheaper than a (token, argument) key).
         self.unary: dict[str, dict[Item, Item]] = {}
         #: Prefix reader: per token of the exact-spelling table met in this batch, see :data:`_Word`.
         self.words: dict[str, _Word] = {}
         self.text_memo: dict[Any, int] = {}
-        self.recipes: dict[tuple[str, ...], Any] = {}
+        self.recipes: dict[tuple[str, ...], _TextRecipe | None] = {}
         self.literal_memo: dict[tuple[str, int, Value], int] = {}
         self.node_memo: dict[tuple[Any, ...], int] = {}
         self.cache = ProgramCache(maxsize=1 << 30)
@@ -225,7 +237,7 @@ class _Batch:
                 ids.append(a)
             else:
                 value = self._value(a)
-                if _literal_type(spec, k, value) is None:
+                if literal_type(spec, k, value) is None:
                     return _TYPE_ERR
                 ids.append(builder.input_literal(spec, k, value, None))
         if fused:
@@ -250,12 +262,9 @@ class _Batch:
             if a >= 0 and spec.n_inputs == 1 and not kind[3]:
                 name = spec.name
                 key = (name, self.nodes[a][3])
-                res = _RESOLUTIONS.get(key)
-                if res is not None:
-                    if not res[2]:
-                        return self._add((name, (a,), (), res[1], res[0]))
-                elif key in _NO_OVERLOAD:
-                    return _TYPE_ERR
+                res = RESOLUTIONS.get(key)
+                if res is not None and not res[2]:
+                    return self._add((name, (a,), (), res[1], res[0]))
         return self._call(kind, (a,))
 
     def _binary(self, kind: _TokenKind, a: Item, b: Item) -> Item:
@@ -273,61 +282,23 @@ class _Batch:
                     return _TYPE_ERR
                 if b >= 0 and spec.n_inputs == 2 and kind[2] is None:
                     key = (name, nodes[a][3], nodes[b][3])
-                    res = _RESOLUTIONS.get(key)
-                    if res is not None:
-                        if not res[2]:
-                            return self._add((name, (a, b), (), res[1], res[0]))
-                    elif key in _NO_OVERLOAD:
-                        return _TYPE_ERR
+                    res = RESOLUTIONS.get(key)
+                    if res is not None and not res[2]:
+                        return self._add((name, (a, b), (), res[1], res[0]))
             elif spec.n_inputs == 1 and b in _TOKEN_KINDS:
                 key = (name, nodes[a][3])
-                res = _RESOLUTIONS.get(key)
-                if res is not None:
-                    if not res[2]:
-                        value = _VALUES[spec.side_inputs[0]].get(b)
-                        if value is not None:
-                            return self._add((name, (a,), (value,), res[1], res[0]))
-                elif key in _NO_OVERLOAD:
-                    return _TYPE_ERR
+                res = RESOLUTIONS.get(key)
+                if res is not None and not res[2]:
+                    value = VALUES[spec.side_inputs[0]].get(b)
+                    if value is not None:
+                        return self._add((name, (a,), (value,), res[1], res[0]))
         return self._call(kind, (a, b))
 
     def _checked_call(self, spec: ModuleSpec, ids: list[int], sides: Sequence[Value]) -> int:
-        """What ``builder.call(spec, ids, sides)`` gives (the caller has checked the numbers of arguments), or
-        :data:`_TYPE_ERR` where it raises, found without raising: building an error's message costs more than
-        reading a program. The same resolution table, value tables and node as the builder's."""
-        nodes = self.nodes
-        name = spec.name
-        n = len(ids)
-        if n == 1:
-            key: tuple[Any, ...] = (name, nodes[ids[0]][3])
-        elif n == 2:
-            key = (name, nodes[ids[0]][3], nodes[ids[1]][3])
-        else:
-            key = (name, *[nodes[i][3] for i in ids])
-        res = _RESOLUTIONS.get(key)
-        if res is None:
-            if key in _NO_OVERLOAD or _resolve_overload(spec, key[1:]) is None:
-                _NO_OVERLOAD.add(key)
-                return _TYPE_ERR
-            res = _RESOLUTIONS[key]
-        values: tuple[Value, ...] = ()
-        if sides:
-            canonical: list[Value] = []
-            for value, expected in zip(sides, spec.side_inputs):
-                if type(value) is not str:
-                    return _TYPE_ERR
-                found = _canonical(value, expected)
-                if found is None:
-                    return _TYPE_ERR
-                canonical.append(found)
-            values = tuple(canonical)
-        overload, output, wrap = res
-        add = self._add
-        if wrap:
-            ids = list(ids)
-            for k in wrap:
-                ids[k] = add(("Unique", (ids[k],), (), DslType.OBJECT, 0))
-        return add((name, tuple(ids), values, output, overload))
+        """What ``builder.call(spec, ids, sides)`` gives, or :data:`_TYPE_ERR` where it raises (the caller has
+        checked the numbers of arguments)."""
+        found = self.builder.try_call(spec, ids, sides)
+        return _TYPE_ERR if found is None else found
 
     def _open(self, kind: _TokenKind, args: Sequence[Item]) -> int:
         """Prefix order, right to left: a module whose arguments run past the end of the sequence (``args``: the
@@ -339,25 +310,26 @@ class _Batch:
             if isinstance(a, int):
                 if a in (_TYPE_ERR, _OPEN_ERR) or (a >= 0 and k >= spec.n_inputs):
                     return _OPEN_ERR
-            elif k < spec.n_inputs and _literal_type(spec, k, self._value(a)) is None:
+            elif k < spec.n_inputs and literal_type(spec, k, self._value(a)) is None:
                 return _OPEN_ERR
         return _OPEN_OK
 
     def _word(self, word: str, n: int) -> _Word:
-        """The batch's entry of a token of the exact-spelling table with ``n`` arguments (-1: a value)."""
+        """The batch's entry of a token of the exact-spelling table with ``n`` arguments (a value:
+        :data:`_VALUE_WORD`)."""
         kind = cast(_TokenKind, _TOKEN_KINDS[word])
         entry: _Word
-        if n == -1:
-            entry = (-1, None, kind)
-        elif n == 0:
-            entry = (0, self._call(kind, ()), kind)
-        elif n == 1:
+        if n == _VALUE_WORD:
+            entry = (_VALUE_WORD, None, kind)
+        elif n == _NULLARY:
+            entry = (_NULLARY, self._call(kind, ()), kind)
+        elif n == _UNARY:
             by_arg = self.unary.get(word)
             if by_arg is None:
                 by_arg = self.unary[word] = {}
-            entry = (1, by_arg, kind)
-        elif n == 2:
-            entry = (2, {}, kind)
+            entry = (_UNARY, by_arg, kind)
+        elif n == _BINARY:
+            entry = (_BINARY, {}, kind)
         else:
             entry = (n, None, kind)
         self.words[word] = entry
@@ -397,7 +369,7 @@ class _Batch:
                         continue
                     entry = self._word(word, n)
                 code, memo, kind = entry
-                if code == 1:  # a module of one argument (the most common token): its memo by argument
+                if code == _UNARY:  # the most common token
                     if top is not None:
                         item = memo.get(top)
                         if item is None:
@@ -405,7 +377,7 @@ class _Batch:
                         top = item
                     else:
                         top = _OPEN_OK
-                elif code == 2:  # its memo by (first argument, second argument)
+                elif code == _BINARY:
                     if stack:
                         pair = (top, pop())
                         item = memo.get(pair)
@@ -414,15 +386,15 @@ class _Batch:
                         top = item
                     else:  # fewer terms than arguments: the call runs past the end
                         top = self._open(kind, [] if top is None else [top])
-                elif code == -1:
+                elif code == _VALUE_WORD:
                     if top is not None:
                         push(top)
                     top = word
-                elif code == 0:
+                elif code == _NULLARY:
                     if top is not None:
                         push(top)
                     top = memo  # its node, made with the entry
-                elif top is not None and len(stack) >= code - 1:
+                elif top is not None and len(stack) >= code - 1:  # three or more arguments
                     args = [top, *stack[len(stack) - code + 1:][::-1]]
                     key = (word, *args)
                     found = self.token_memo.get(key)
@@ -435,13 +407,10 @@ class _Batch:
                     stack.clear()
                     top = self._open(kind, args)
             else:
-                if type(top) is str:  # the sequence starts with a value
+                if not isinstance(top, int):  # the sequence starts with a value (words are not empty)
                     result = _SYNTAX
                 elif not stack:
-                    if top >= 0:  # type: ignore[operator]
-                        result = top  # type: ignore[assignment]
-                    else:
-                        result = _SYNTAX if top == _OPEN_OK else _TYPE
+                    result = top if top >= 0 else _SYNTAX if top == _OPEN_OK else _TYPE
                 else:  # the term starting at token 0 ends before the sequence does: too many tokens, unless
                     result = _TYPE if top == _TYPE_ERR else _SYNTAX  # it has a type error
             results.append(result)
@@ -462,10 +431,11 @@ class _Batch:
                 stack.append(word)
                 continue
             key: Any
-            if n < 0:
+            if n == _VALUE_WORD:
                 stack.append(word)
                 continue
-            if n == 1:
+            kind = cast(_TokenKind, kinds[word])
+            if n == _UNARY:
                 if not stack:
                     return _SYNTAX
                 by_arg = self.unary.get(word)
@@ -474,15 +444,15 @@ class _Batch:
                 top = stack[-1]
                 item = by_arg.get(top)
                 if item is None:
-                    item = by_arg[top] = call(kinds[word], (top,))  # type: ignore[arg-type]
+                    item = by_arg[top] = call(kind, (top,))
                 if item == _TYPE_ERR:
                     return _TYPE
                 stack[-1] = item
                 continue
-            if n == 0:
+            if n == _NULLARY:
                 item = memo.get(word)
                 if item is None:
-                    item = memo[word] = call(kinds[word], ())  # type: ignore[arg-type]
+                    item = memo[word] = call(kind, ())
                 stack.append(item)
                 continue
             if len(stack) < n:
@@ -490,7 +460,7 @@ class _Batch:
             key = (word, *stack[-n:])
             item = memo.get(key)
             if item is None:
-                item = memo[key] = call(kinds[word], stack[-n:])  # type: ignore[arg-type]
+                item = memo[key] = call(kind, stack[-n:])
             if item == _TYPE_ERR:
                 return _TYPE
             del stack[-n:]
@@ -509,12 +479,13 @@ class _Batch:
         only the calls that take its values."""
         parts = _QUOTED.split(text)
         skeleton = tuple(parts[0::2])
-        recipe = self.recipes.get(skeleton)
-        if recipe is None:
+        if skeleton in self.recipes:
+            recipe = self.recipes[skeleton]
+        else:
             recipe = self.recipes[skeleton] = self._text_recipe(text)
-        if recipe is _NO_RECIPE:
+        if recipe is None:
             return None
-        steps, root = recipe  # type: ignore[misc]
+        steps, root = recipe
         if not steps:
             return root
         values = parts[1::2]
@@ -536,27 +507,24 @@ class _Batch:
             return None
         return results[-1]
 
-    def _text_recipe(self, text: str) -> tuple[list[_Step], int] | object:
+    def _text_recipe(self, text: str) -> _TextRecipe | None:
         """The recipe of a text's skeleton: ``(steps, root)``, where ``steps`` are the calls that take quoted
         values (directly or through their arguments), in order, the last one the answer, and ``root`` is the
-        answer's node when no call takes one; :data:`_NO_RECIPE` where :func:`~craft_dsl.parser.fast_check`
+        answer's node when no call takes one (else :data:`_NO_ROOT`); None where :func:`~craft_dsl.parser.fast_check`
         gives up on every text of this skeleton. Read by the same scanner (:func:`~craft_dsl.parser.scan_calls`)."""
         recipe = _Recipe(self)
         found = scan_calls(text, recipe, _Recipe.close, _Recipe.input_value, _Recipe.side_value)
         if found is None:
-            return _NO_RECIPE
+            return None
         kind, ref, _k = found[0]
-        return (recipe.steps, ref) if kind == _CONSTANT else (recipe.steps, -1)
+        return (recipe.steps, ref) if kind == _CONSTANT else (recipe.steps, _NO_ROOT)
 
     def _text_call(self, spec: ModuleSpec, args: list[Any]) -> int:
         key = (spec.name, *args)
         found = self.text_memo.get(key)
         if found is None:
-            try:
-                found = self.builder.call(spec, args[:spec.n_inputs], args[spec.n_inputs:])
-            except ProgramError:
-                found = -1
-            self.text_memo[key] = found
+            made = self.builder.try_call(spec, args[:spec.n_inputs], args[spec.n_inputs:])
+            found = self.text_memo[key] = _TYPE_ERR if made is None else made
         if found < 0:
             raise GiveUp
         return found
@@ -576,16 +544,17 @@ class _Batch:
         return self.read_node_lists_all((nodes,))[0]
 
     def read_node_lists_all(self, programs: Sequence[Any]) -> list[int | None]:
-        """Each node list: its root node, :data:`_TYPE` where the first type error decides, or None where the
-        single-program reader must read it (an empty or malformed list, an unknown name, an input that is not an
-        earlier node, an unhashable "type"). One loop for the whole batch: the reader's set-up is paid once, not per
-        program.
+        """Each node list: its root node, :data:`_SYNTAX` or :data:`_TYPE` where the first error decides, or None
+        where the single-program reader must read it (an empty or malformed list, a node that is not a dict, inputs
+        or side inputs of another type, an unhashable "type"). One loop for the whole batch: the reader's set-up is
+        paid once, not per program.
 
-        A node's memo key is (type, *input node ids, *side values). The checks that depend only on the key (the
-        module name, the numbers of inputs and side inputs, the side values) are made once per key, by _node_new;
-        the ones a key does not fix (the dict, the input indexes, exact str side values) per node. A node with
-        exactly the keys to_nodes() writes has its fields read directly, any other by _node_fields; an input that
-        is not an earlier node raises IndexError (a negative one is refused first)."""
+        The syntax errors (an unknown name, an input that is not an earlier node, another number of inputs) come
+        before the type errors of the same node, as in the single-program reader. A node's memo key is (type,
+        *input node ids, *side values). The checks that depend only on the key (the module name, the numbers of
+        inputs and side inputs, the side values) are made once per key, by _node_new; the ones a key does not fix
+        (the dict, the input indexes, exact str side values) per node. A node with exactly the keys to_nodes()
+        writes has its fields read directly, any other by _node_fields."""
         memo = self.node_memo
         lookup = memo.get
         node_new = self._node_new
@@ -613,17 +582,24 @@ class _Batch:
                     if type(inputs) is not list:
                         raise _Refused
                     n = len(inputs)
+                    k = len(built)
                     if n == 1:
                         i = inputs[0]
-                        if type(i) is not int or i < 0:
-                            raise _Refused
+                        if type(i) is not int or not 0 <= i < k:
+                            result = _SYNTAX  # an input that is not an earlier node
+                            break
                         key = (name, built[i])
                     elif n == 0:
                         key = (name,)
                     else:
+                        bad = False
                         for i in inputs:
-                            if type(i) is not int or i < 0:
-                                raise _Refused
+                            if type(i) is not int or not 0 <= i < k:
+                                bad = True
+                                break
+                        if bad:
+                            result = _SYNTAX
+                            break
                         key = (name, *[built[i] for i in inputs])
                     if sides:
                         if type(sides) is not list:
@@ -632,37 +608,40 @@ class _Batch:
                             if type(v) is not str:
                                 raise _Refused
                         key = (*key, *sides)
+                    elif type(sides) is not list:  # None or missing: what that means depends on the module
+                        key = (*key, _NOT_A_LIST)
                     found = lookup(key)
                     if found is None:
                         found = memo[key] = node_new(key, n, sides)
                     if found < 0:
-                        result = None if found == _UNREAD else _TYPE
+                        result = _NODE_VERDICTS[found]
                         break
                     append(found)
                 else:
                     result = built[-1]
-            except (_Refused, IndexError, TypeError):  # TypeError: an unhashable "type"
+            except (_Refused, TypeError):  # TypeError: an unhashable "type"
                 result = None
             results.append(result)
         return results
 
     def _node_new(self, key: tuple[Any, ...], n: int, sides: list[str] | None) -> int:
         """The node of a memo key of :meth:`read_node_lists_all` (``n`` input ids after the name, then ``sides``), as
-        :meth:`_checked_call` makes it; :data:`_TYPE_ERR` for a type error, :data:`_UNREAD` where the
-        single-program reader must decide (an unknown name, other numbers of inputs or side inputs, a side value
-        written as a parameter)."""
+        :meth:`_checked_call` makes it; :data:`_SYNTAX_ERR` for an unknown name or other numbers of inputs,
+        :data:`_TYPE_ERR` for a type error (other numbers of side inputs included), :data:`_UNREAD` where the
+        single-program reader must decide (side inputs that are not a list, a side value written as a
+        parameter)."""
         shape = _NODE_SHAPES.get(key[0])
-        if shape is None or shape[1] != n:
-            return _UNREAD
+        if shape is None or shape[1] != n:  # an unknown name, or too many or too few inputs
+            return _SYNTAX_ERR
         spec, _n, reorder, n_sides = shape
         if sides:
-            if len(sides) != n_sides:
-                return _UNREAD
             for v in sides:
-                if v[:1] == "<":
+                if v[:1] == "<":  # a placeholder or a word that looks like one
                     return _UNREAD
-        elif n_sides:
-            return _UNREAD
+            if len(sides) != n_sides:
+                return _TYPE_ERR
+        elif n_sides:  # no side input where the module takes some: a type error if an empty list was written
+            return _UNREAD if key[-1] is _NOT_A_LIST else _TYPE_ERR
         if n == 1:
             ids = [key[1]]
         else:
@@ -680,7 +659,7 @@ class _Batch:
             return _SYNTAX if outcome.kind == "syntax_error" else _TYPE
         assert checked is not None
         index: list[int] = []
-        add = self.builder._add
+        add = self.builder.add
         for module, inputs, values, typ, overload in checked.nodes:
             raw: RawNode = (module, tuple([index[j] for j in inputs]), values, typ, overload)
             index.append(add(raw))
@@ -787,6 +766,17 @@ _Operation = tuple[int, Any, int, int, Any]
 _LITERAL, _NONE, _ONE, _ONE_SIDE, _TWO, _OTHER = range(6)
 
 
+#: Per accepted node-list module name: (spec, number of inputs, how to reorder the inputs of an original name or
+#: None, number of side inputs).
+_NODE_SHAPES: dict[str, tuple[ModuleSpec, int, tuple[int, ...] | None, int]] = {
+    name: (spec, spec.n_inputs, tuple(ORIGINAL_TO_OURS[spec.name]) if name != spec.name and spec.name in
+           ORIGINAL_TO_OURS else None, len(spec.side_inputs))
+    for name, spec in NAMES.items()
+}
+#: The last item of a node-list memo key whose node's side inputs are not a list (None, or no such field).
+_NOT_A_LIST = object()
+
+
 class _Refused(Exception):
     """A node list the batch reader leaves to the single-program reader (raised inside its loop)."""
 
@@ -802,7 +792,7 @@ def _node_fields(node: dict[str, Any]) -> tuple[Any, Any, Any]:
 
 def _extra_token(word: Any) -> bool:
     """Whether a token missing from the exact-spelling table is an integer the token reader accepts."""
-    if type(word) is not str or not _INT.match(word):
+    if type(word) is not str or not INTEGER_TOKEN.match(word):
         return False
     try:
         integer_literal(word)
@@ -811,37 +801,13 @@ def _extra_token(word: Any) -> bool:
     return True
 
 
-_INPUT_TYPES: dict[tuple[str, int], frozenset[DslType]] = {}
-#: (module, *input types) that no overload of the module accepts (the checker caches only the ones that fit).
-_NO_OVERLOAD: set[tuple[Any, ...]] = set()
-
-
-def _literal_type(spec: ModuleSpec, k: int, value: Value) -> DslType | None:
-    """The type of the literal ``ProgramBuilder.input_literal`` makes of ``value`` as input ``k`` of ``spec``, or
-    None where it raises."""
-    if isinstance(value, int):
-        return DslType.INTEGER
-    expected = _INPUT_TYPES.get((spec.name, k))
-    if expected is None:
-        expected = _INPUT_TYPES[(spec.name, k)] = frozenset(ov.inputs[k] for ov in spec.overloads)
-    if len(expected) != 1:
-        return None
-    (typ,) = expected
-    return typ if typ in SIDE_INPUT_TYPES and _canonical(value, typ) is not None else None
-
-
-def _canonical(value: str, typ: DslType) -> str | None:
-    """What :func:`craft_dsl.checker.canonical_value` gives, or None where it raises."""
-    table = _VALUES[typ]
-    found = table.get(value)
-    return found if found is not None else table.get(value.strip().lower())
-
-
 #: Where an argument of a text recipe's call comes from: (kind, reference, argument position).
 _Source = tuple[int, int, int]
 _CONSTANT, _STEP, _INPUT_VALUE, _SIDE_VALUE = range(4)  # a node; a step's result; a quoted value as input / side
 _Step = tuple[ModuleSpec, tuple[_Source, ...]]
-_NO_RECIPE = object()
+#: A text recipe: (steps, the answer's node or :data:`_NO_ROOT` where a step makes it).
+_TextRecipe = tuple[list[_Step], int]
+_NO_ROOT = -1
 #: A quoted value, as the text reader's scanner finds it (craft_dsl.parser._FAST_TOKEN).
 _QUOTED = re.compile('"([^"\u201c\u201d\n]*)"')
 
@@ -920,7 +886,7 @@ def run_batch(programs: Sequence[Any], sims: Simulation | Sequence[Simulation],
         raise CraftError(f"run_batch: sims must be a Simulation or a list of them, found {type(sims).__name__}")
 
     if n == 1:  # nothing to share: the single-program path
-        return _one(programs[0], sims if sim_list is None else sim_list[0], form)  # type: ignore[arg-type]
+        return _one(programs[0], sims if isinstance(sims, Simulation) else sims[0], form)
     was_enabled = gc.isenabled()
     gc.disable()  # a batch makes many small objects and no reference cycles: full collections would only cost
     try:
@@ -942,10 +908,10 @@ def _run(programs: Sequence[Any], sims: Simulation | Sequence[Simulation], sim_l
 
     # Evaluate the needed nodes once per simulation.
     invalid = INVALID
-    if sim_list is None:
+    if isinstance(sims, Simulation):
         distinct = set(read)
         roots = [r for r in distinct if r >= 0]
-        slots = batch.evaluate(sims, roots) if roots else {}  # type: ignore[arg-type]
+        slots = batch.evaluate(sims, roots) if roots else {}
         # One outcome per distinct root, then the columns in one pass each.
         code_of: dict[int, int] = {_SYNTAX: SYNTAX_ERROR, _TYPE: TYPE_ERROR}
         answer_of: dict[int, Any] = {_SYNTAX: None, _TYPE: None}
@@ -955,6 +921,7 @@ def _run(programs: Sequence[Any], sims: Simulation | Sequence[Simulation], sim_l
                 code_of[r], answer_of[r] = (INVALID_ANSWER, None) if v is invalid else (ANSWER, v)
         return BatchResult(np.array(list(map(code_of.__getitem__, read)), dtype=np.int8),
                            list(map(answer_of.__getitem__, read)))
+    assert sim_list is not None
     groups: dict[int, tuple[Simulation, list[int]]] = {}
     group_of = list(map(id, sim_list))
     for r, s, g_id in zip(read, sim_list, group_of):
@@ -971,7 +938,7 @@ def _run(programs: Sequence[Any], sims: Simulation | Sequence[Simulation], sim_l
     return BatchResult(np.array(codes, dtype=np.int8), answers)
 
 
-def _read_token_lists(batch: _Batch, programs: Sequence[Any], form: str) -> list[int] | None:
+def _read_token_lists(batch: _Batch, programs: Sequence[Any], form: ProgramForm) -> list[int] | None:
     """The reading of a batch whose programs are all non-empty lists of hashable tokens (the form a sampler
     gives), with the per-program work in single passes: keys, distinct keys, results per program. None for
     any other batch (:func:`_read_each` reads it)."""
@@ -991,7 +958,7 @@ def _read_token_lists(batch: _Batch, programs: Sequence[Any], form: str) -> list
     for j, result in enumerate(read):
         if result is None:
             i = ids.index(j)  # the first program of this key, for the single-program reader
-            result = _alone(batch, programs[i], form, i)  # type: ignore[arg-type]
+            result = _alone(batch, programs[i], form, i)
         elif result >= 0 and nodes[result][3] not in answer_types:
             result = _TYPE
         results.append(result)
@@ -1000,21 +967,43 @@ def _read_token_lists(batch: _Batch, programs: Sequence[Any], form: str) -> list
 
 def _read_node_lists(batch: _Batch, programs: Sequence[Any]) -> list[int] | None:
     """The reading of a batch of node lists (every program a list), in one pass without the per-program
-    bookkeeping of :func:`_read_each`: node lists are not grouped (each is read through the memo of checked
-    nodes, which makes a repeated one cheap). None for any other batch."""
+    bookkeeping of :func:`_read_each`. Each distinct list is read once (see :func:`node_list_key`); distinct
+    lists share the memo of checked nodes. None for any other batch."""
     if not programs or set(map(type, programs)) != {list}:
         return None
+    index: dict[Any, int] = {}  # key of a distinct list -> its number, in the order of the first programs
+    by_id: dict[int, int] = {}  # the same for list objects (which live as long as `programs`)
+    distinct: list[Any] = []
+    ids: list[int] = []
+    append_id = ids.append
+    for p in programs:
+        j = by_id.get(id(p))
+        if j is None:
+            j = by_id[id(p)] = index.setdefault(node_list_key(p), len(index))
+            if j == len(distinct):
+                distinct.append(p)
+        append_id(j)
     answer_types = ANSWER_TYPES
     nodes = batch.nodes
     read: list[int] = []
     append = read.append
-    for i, result in enumerate(batch.read_node_lists_all(programs)):
+    for j, result in enumerate(batch.read_node_lists_all(distinct)):
         if result is None:
-            result = _alone(batch, programs[i], "nodes", i)
+            result = _alone(batch, distinct[j], "nodes", ids.index(j))
         elif result >= 0 and nodes[result][3] not in answer_types:
             result = _TYPE
         append(result)
-    return read
+    return read if len(distinct) == len(programs) else list(map(read.__getitem__, ids))
+
+
+def node_list_key(nodes: list[Any]) -> Any:
+    """A hashable key of a node list: equal keys, equal lists (same values of the same types, dict keys in the same
+    order), so an equal list has the same outcome. The list's marshal bytes (one C call), or for a list marshal
+    does not take (other objects in it) a key equal to no other."""
+    try:
+        return marshal.dumps(nodes)
+    except ValueError:
+        return object()
 
 
 def _read_each(batch: _Batch, programs: Sequence[Any], form: ProgramForm | None) -> list[int]:
