@@ -369,15 +369,6 @@ class OriginalSimulator:
         """Simulate ``world`` for ``steps`` steps; write the original renderer's MPEG-1 video to ``video`` if
         given. ``what`` names the run in error messages. A run that fails because the private X server went away
         is run once more on a new one."""
-        try:
-            return self._run_once(world, steps, video, what)
-        except OriginalSimulatorError:
-            if not _DISPLAY.lost():
-                raise
-            return self._run_once(world, steps, video, what)
-
-    def _run_once(self, world: WorldSpec, steps: int, video: str | os.PathLike[str] | None,
-                  what: str) -> OriginalRun:
         return self._execute(world.scene_id if isinstance(world.scene_id, int) else 1, steps, video,
                              what or _describe(world), scene=scene_file(world))
 
@@ -387,15 +378,20 @@ class OriginalSimulator:
         makes a video: seeded with ``seed`` through the build's edit (:data:`ENV_SEED`), or, with None, from the
         clock and the hardware. The output's step-0 scene is the start state it drew."""
         label = what or f"a fresh scene {scene_id} ({'unseeded' if seed is None else f'seed {seed}'})"
-        try:
-            return self._execute(scene_id, steps, video, label, seed=seed)
-        except OriginalSimulatorError:
-            if not _DISPLAY.lost():
-                raise
-            return self._execute(scene_id, steps, video, label, seed=seed)
+        return self._execute(scene_id, steps, video, label, seed=seed)
 
     def _execute(self, scene_id: int, steps: int, video: str | os.PathLike[str] | None, label: str, *,
                  scene: dict[str, Any] | None = None, seed: int | None = None) -> OriginalRun:
+        """:meth:`_execute_once`, once more on a new X server where the private one went away."""
+        try:
+            return self._execute_once(scene_id, steps, video, label, scene=scene, seed=seed)
+        except OriginalSimulatorError:
+            if not _DISPLAY.lost():
+                raise
+            return self._execute_once(scene_id, steps, video, label, scene=scene, seed=seed)
+
+    def _execute_once(self, scene_id: int, steps: int, video: str | os.PathLike[str] | None, label: str, *,
+                      scene: dict[str, Any] | None = None, seed: int | None = None) -> OriginalRun:
         """One run of the binary: from ``scene`` (a step-0 scene file), or a scene the original samples itself
         (``scene`` None, seeded with ``seed``)."""
         import time
