@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 from collections.abc import Sequence
 from pathlib import Path
@@ -58,3 +59,17 @@ def assert_read_alike(original: Perception, copy: Perception, questions: Sequenc
     assert copy.layout.scene == original.layout.scene
     assert sorted(copy.reconstruction.attributes) == sorted(original.reconstruction.attributes)
     assert_same_answers(original.scene, copy.scene, questions)
+
+
+def strip_dataset(dataset: Path, out: Path, videos: Sequence[int]) -> Path:
+    """The videos ``videos`` of a generated ``dataset``, flat in ``out/videos``, and ``out/questions.json``: their
+    records' (video_index, question_index, question), as a user without the dataset's files has them."""
+    (out / "videos").mkdir()
+    for index in videos:
+        source = next(dataset.glob(f"videos/*/{index:06d}.mpg"))
+        shutil.copy(source, out / "videos" / source.name)
+    records = json.loads((dataset / "dataset_minimal.json").read_text())
+    (out / "questions.json").write_text(json.dumps([
+        {k: r[k] for k in ("video_index", "question_index", "question")} for r in records
+        if r["video_index"] in videos]))
+    return out

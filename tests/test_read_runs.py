@@ -12,7 +12,6 @@ import contextlib
 import json
 import os
 import re
-import shutil
 import signal
 import subprocess
 import sys
@@ -31,6 +30,7 @@ from craft_dsl.reader.answer import VIDEO_SUFFIXES, Answer, Question, find_video
 from craft_dsl.reader.runs import Journal, ctrl_c_outside_callbacks, journal_path, run_tasks
 from craft_dsl.reader.video import decode
 from tests.foreground import restore_ctrl_c
+from tests.reader_helpers import strip_dataset
 
 VIDEOS = (0, 2, 4)  # one video of each of the users dataset's scenes
 
@@ -39,16 +39,7 @@ VIDEOS = (0, 2, 4)  # one video of each of the users dataset's scenes
 def stripped(users_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Three of the users dataset's videos, flat, and a questions file of their (video_index, question_index,
     question) records."""
-    out = tmp_path_factory.mktemp("stripped")
-    (out / "videos").mkdir()
-    for index in VIDEOS:
-        source = next(users_dataset.glob(f"videos/*/{index:06d}.mpg"))
-        shutil.copy(source, out / "videos" / source.name)
-    records = json.loads((users_dataset / "dataset_minimal.json").read_text())
-    (out / "questions.json").write_text(json.dumps([
-        {k: r[k] for k in ("video_index", "question_index", "question")} for r in records
-        if r["video_index"] in VIDEOS]))
-    return out
+    return strip_dataset(users_dataset, tmp_path_factory.mktemp("stripped"), VIDEOS)
 
 
 @pytest.fixture(scope="module")

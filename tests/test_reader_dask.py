@@ -7,8 +7,6 @@ Perception is real: three 200-step videos of the users dataset.
 
 from __future__ import annotations
 
-import json
-import shutil
 import socket
 import sys
 from collections.abc import Iterator
@@ -22,6 +20,7 @@ from craft_dsl.cli import main
 from craft_dsl.errors import ReaderError
 from craft_dsl.reader import cli as read_cli
 from craft_dsl.reader.runs import Journal, check_workers, journal_path
+from tests.reader_helpers import strip_dataset
 
 VIDEOS = (0, 2, 4)  # one video of each of the users dataset's scenes
 OUTPUTS = ("preds.json", "details.jsonl")
@@ -30,16 +29,7 @@ OUTPUTS = ("preds.json", "details.jsonl")
 @pytest.fixture(scope="module")
 def stripped(users_dataset: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Three of the users dataset's videos, flat, and a questions file of their records' texts."""
-    out = tmp_path_factory.mktemp("stripped")
-    (out / "videos").mkdir()
-    for index in VIDEOS:
-        source = next(users_dataset.glob(f"videos/*/{index:06d}.mpg"))
-        shutil.copy(source, out / "videos" / source.name)
-    records = json.loads((users_dataset / "dataset_minimal.json").read_text())
-    (out / "questions.json").write_text(json.dumps([
-        {k: r[k] for k in ("video_index", "question_index", "question")} for r in records
-        if r["video_index"] in VIDEOS]))
-    return out
+    return strip_dataset(users_dataset, tmp_path_factory.mktemp("stripped"), VIDEOS)
 
 
 def _args(stripped: Path, out: Path, *extra: str) -> list[str]:

@@ -227,8 +227,7 @@ def absent_slots(model: LayoutModel, values: Mapping[str, float], tracks: Sequen
         if start is None:
             continue
         x, y = world_to_pixel(*start, size)
-        near = any(b is not None and b.frame < PRESENT_FRAMES
-                   and math.hypot(b.x - x, b.y - y) <= PRESENT_RADIUS_PX * scale
+        near = any(b is not None and math.hypot(b.x - x, b.y - y) <= PRESENT_RADIUS_PX * scale
                    for obj in tracks for b in obj.blobs[:PRESENT_FRAMES])
         if not near:
             absent.append(i)
