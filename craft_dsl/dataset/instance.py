@@ -331,6 +331,27 @@ class Shard:
     rows: tuple[str, ...] = ()
 
 
+def _texts(header: dict[str, Any], data: bytes) -> Shard:
+    """The shard of ``header`` and its decompressed body ``data``."""
+    texts, at = [], 0
+    for size in header["sizes"]:
+        texts.append(data[at:at + size].decode("utf-8"))
+        at += size
+    n = len(header["questions"])
+    return Shard(header, texts[0], tuple(texts[1:1 + n]), tuple(texts[1 + n:1 + 2 * n]), tuple(texts[1 + 2 * n:]))
+
+
+def decode_shard(shard: bytes) -> Shard:
+    """A shard as a worker returns it (:attr:`InstanceResult.shard`), decoded; a malformed one raises ValueError
+    or ``zlib.error``."""
+    if not shard.startswith(SHARD_MAGIC) or len(shard) < len(SHARD_MAGIC) + _LENGTHS.size:
+        raise ValueError("not a shard of this format")
+    head_len, body_len = _LENGTHS.unpack_from(shard, len(SHARD_MAGIC))
+    at = len(SHARD_MAGIC) + _LENGTHS.size
+    header = json.loads(shard[at:at + head_len])
+    return _texts(header, zlib.decompress(shard[at + head_len:at + head_len + body_len]))
+
+
 def read_shard(path: Path, body: bool = True) -> Shard:
     """Read a shard file (the body too unless ``body=False``); a damaged file is a :class:`CraftError`."""
     try:
@@ -345,13 +366,8 @@ def read_shard(path: Path, body: bool = True) -> Shard:
             data = zlib.decompress(fh.read(body_len))
     except (OSError, ValueError, zlib.error) as err:
         raise CraftError(f"{path}: damaged work file ({err}); delete it and re-run to recompute the video") from None
-    texts, at = [], 0
-    for size in header["sizes"]:
-        texts.append(data[at:at + size].decode("utf-8"))
-        at += size
-    n = len(header["questions"])
-    return Shard(header, texts[0], tuple(texts[1:1 + n]), tuple(texts[1 + n:1 + 2 * n]), tuple(texts[1 + 2 * n:]))
+    return _texts(header, data)
 
 
-__all__ = ["InstanceResult", "InstanceTask", "Shard", "StageClock", "encode_shard", "instance_seeds",
+__all__ = ["InstanceResult", "InstanceTask", "Shard", "StageClock", "decode_shard", "encode_shard", "instance_seeds",
            "read_shard", "render_media", "run_instance", "shard_is_complete"]

@@ -18,7 +18,6 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import struct
 import zlib
 from collections.abc import Iterator, Sequence
 from itertools import count
@@ -30,7 +29,7 @@ import torch
 from torch.utils.data import IterableDataset, get_worker_info
 
 from ..atomic import atomic_path
-from ..dataset.instance import SHARD_MAGIC, InstanceTask, instance_seeds, run_instance
+from ..dataset.instance import InstanceTask, decode_shard, instance_seeds, run_instance
 from ..dataset.layout import media_complete, resolve
 from ..dataset.pipeline import GenerationConfig, instance_task, work_list
 from ..errors import CraftError, MissingExtraError
@@ -47,7 +46,6 @@ STREAM_FRAME_MODES: tuple[str, ...] = (*FRAME_MODES, "file")
 HF_FRAME_MODES: tuple[str, ...] = ("none", "file")
 #: Settings of :class:`~craft_dsl.dataset.pipeline.GenerationConfig` that mean nothing in a stream.
 _NOT_STREAM_SETTINGS = ("size", "workers", "videos", "downsampled", "balance")
-_SHARD_LENGTHS = struct.Struct("<QQ")  # the two lengths after SHARD_MAGIC (craft_dsl.dataset.instance.encode_shard)
 
 
 def stream_answers() -> tuple[str, ...]:
@@ -66,23 +64,12 @@ def stream_tokens() -> tuple[str, ...]:
 
 
 def _shard_rows(shard: bytes) -> list[dict[str, Any]]:
-    """The Hugging Face rows a worker's shard holds (its last texts; see :func:`~craft_dsl.dataset.instance.
-    read_shard`)."""
-    at = len(SHARD_MAGIC)
-    if not shard.startswith(SHARD_MAGIC):
-        raise CraftError("internal error: a worker returned a shard of another format")
-    head_len, body_len = _SHARD_LENGTHS.unpack_from(shard, at)
-    at += _SHARD_LENGTHS.size
-    header = json.loads(shard[at:at + head_len])
-    body = zlib.decompress(shard[at + head_len:at + head_len + body_len])
-    sizes = header["sizes"]
-    n = len(header["questions"])
-    start = sum(sizes[:1 + 2 * n])
-    rows = []
-    for size in sizes[1 + 2 * n:]:
-        rows.append(json.loads(body[start:start + size]))
-        start += size
-    return rows
+    """The Hugging Face rows a worker's shard holds (:func:`~craft_dsl.dataset.instance.decode_shard`)."""
+    try:
+        rows = decode_shard(shard).rows
+    except (ValueError, zlib.error) as err:
+        raise CraftError(f"internal error: a worker returned a malformed shard ({err})") from None
+    return [json.loads(row) for row in rows]
 
 
 def _distributed(rank: int | None, world_size: int | None) -> tuple[int, int]:
