@@ -86,3 +86,44 @@ def test_without_the_overlap_allowance_the_restart_sinks_the_body_and_it_hits_th
     monkeypatch.setattr(R, "OVERLAP_SLACK", 10.0)  # any overlap allowed
     _sim, restarted, uid = _restart_on_a_bad_track(_basket_world())
     assert restarted is not None and _ground_hits(restarted, uid)
+
+
+def _empty_world(x: float, vx: float = 0.0) -> WorldSpec:
+    body = replace(make_dynamic(0, "cube", "red", "large", (x, 30.0)), velocity=(vx, 0.0))
+    bodies = [make_static(0, "wall_l"), make_static(0, "wall_r"), make_static(0, "ground"),
+              make_static(0, "basket", (-18.0, -1.2)), body]
+    return WorldSpec(bodies=assign_uids(bodies), scene_id=None, seed=0)
+
+
+def _restart_far_from_the_track() -> tuple[LiveSimulation | None, SimpleNamespace, int]:
+    """A falling cube whose run is 4 m (20 px) left of its track and slower by 3 m/s: the restart at frame 30."""
+    sim = simulate(_empty_world(0.0), engine="box2d", steps=FRAMES)
+    truth = simulate(_empty_world(4.0, 3.0), engine="box2d", steps=FRAMES)
+    uid = next(b.uid for b in _empty_world(0.0).bodies if b.dynamic)
+    traj = truth.trajectory
+    assert traj is not None
+    col = traj.column(uid)
+    rows = np.arange(1, FRAMES + 1)
+    px, py = world_to_pixel(traj.positions[rows, col, 0], traj.positions[rows, col, 1], 256)
+    fit = SimpleNamespace(rows=rows, observed={0: np.stack([px, py, np.zeros(FRAMES)], axis=1)}, uids=[uid],
+                          attributes=[("cube", "red", "large")], size=256)
+    restarted = R.reanchor(sim, fit, FRAMES, 36, get_engine("box2d"), None)  # type: ignore[arg-type]
+    return restarted, fit, uid
+
+
+def test_a_restart_far_from_the_track_starts_where_the_frames_show_the_body() -> None:
+    """The fit's steps could not cross 20 px in its iterations; started from the line through the first frames of
+    its window (position and velocity), the restarted run follows the track to the end."""
+    restarted, fit, _uid = _restart_far_from_the_track()
+    assert restarted is not None
+    worst, first = R.stray(restarted, fit, FRAMES, start=36)  # type: ignore[arg-type]
+    assert not first and max(worst.values()) > 20  # before the restart the run was 20+ px off
+
+
+def test_without_the_guess_the_restart_cannot_catch_up(monkeypatch: pytest.MonkeyPatch) -> None:
+    """What the guess adds (the test above would fail without it)."""
+    monkeypatch.setattr(R, "GUESS_PX", float("inf"))
+    restarted, fit, _uid = _restart_far_from_the_track()
+    if restarted is not None:
+        _worst, first = R.stray(restarted, fit, FRAMES, start=36)  # type: ignore[arg-type]
+        assert first

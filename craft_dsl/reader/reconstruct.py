@@ -50,7 +50,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ..perception.events import GeometryProbe
-from ..perception.params import ANGLE, POSITION, SIZE, SPIN, VX, VY, X, Y, block, per_component, pose
+from ..perception.params import ANGLE, POSITION, SIZE, SPIN, VELOCITY, VX, VY, X, Y, block, per_component, pose
 from ..physics.engine import ContactLog, PhysicsEngine, RawRun, splice
 from ..physics.live import LiveSimulation, get_engine
 from ..physics.reach import interaction_groups
@@ -129,6 +129,12 @@ ANCHOR_MOVER_PX = 1.0
 ANCHOR_ITERATIONS = 5
 #: A restart window shorter than this (frames) is not fitted.
 ANCHOR_MIN_FRAMES = 4
+#: A mover whose run lies further than this (pixels) from its first frames of a restart window starts its fit from
+#: where those frames show it (:meth:`_Restart.guess`: position and velocity of a line through its first
+#: GUESS_FRAMES observations) instead of from the run's state: the fit's steps (:data:`_ANCHOR_STEP_LIMIT`) cannot
+#: cross the tens of pixels a run strays after a chaotic contact, so a restart after the stray could never catch up.
+GUESS_PX = 5.0
+GUESS_FRAMES = 6
 #: Levenberg-Marquardt damping of a restart fit: this share of each diagonal term of J^T J plus this floor, so a
 #: state the window does not pin down (a body at rest) keeps its value.
 ANCHOR_DAMPING = 1e-3
@@ -849,18 +855,65 @@ class _Restart:
         steps_fd = np.tile(_ANCHOR_FD_STEP, len(self.movers))
         return forward_jacobian(lambda p: self.residual_of(self.run_at(p)), params, r, steps_fd, columns, rows)
 
+    def guess(self) -> np.ndarray:
+        """Offsets that put each mover the run has lost (further than :data:`GUESS_PX` from its first frame seen in
+        the window) where the window shows it: position and velocity of a least-squares line through its first
+        :data:`GUESS_FRAMES` observations (a colour centroid less its eye bias at the run's angle); its angle and spin,
+        and every mover the run has not lost, keep the run's. Zero where nothing is lost."""
+        from ..perception.coords import to_metres
+
+        params = np.zeros(SIZE * len(self.movers))
+        fit, start, last = self.start_fit, self.start, self.traj.positions.shape[0] - 1
+        slot_of = {uid: s for s, uid in enumerate(fit.uids)}
+        for i, uid in enumerate(self.movers):
+            obs = self.observed.get(slot_of.get(uid, -1))
+            if obs is None:
+                continue
+            seen = np.nonzero(~np.isnan(obs[:self.shown.size, 0]))[0][:GUESS_FRAMES]
+            if seen.size < 2:
+                continue
+            col = self.traj.column(uid)
+            shape, _color, size = fit.attributes[slot_of[uid]]
+            rows = np.minimum(start + self.shown[seen], last)
+            angle = self.traj.angles[start, col]
+            run_seen = _as_observed(self.traj.positions[rows[:1], col], self.traj.angles[rows[:1], col],
+                                    (shape, size), obs[seen[:1], 2], fit.size)[0]
+            if float(np.hypot(*(run_seen - obs[seen[0], :2]))) <= GUESS_PX:
+                continue
+            bias = _as_observed(np.zeros((seen.size, 2)), np.full(seen.size, angle), (shape, size), obs[seen, 2],
+                                fit.size) - np.array(world_to_pixel(0.0, 0.0, fit.size))
+            x, y = to_metres(obs[seen, 0] - bias[:, 0], obs[seen, 1] - bias[:, 1], fit.size)
+            t = self.shown[seen] / SIM_FPS
+            design = np.stack([np.ones_like(t), t], axis=1)
+            (x0, vx), (y0, vy) = np.linalg.lstsq(design, np.stack([x, y], axis=1), rcond=None)[0].T
+            b = block(params, i)
+            b[POSITION] = (x0, y0) - self.traj.positions[start, col]
+            if seen.size >= 3:
+                b[VELOCITY] = (vx, vy) - self.traj.velocities[start, col]
+        return params
+
     def fit(self) -> dict[int, np.ndarray] | None:
-        """The fitted offsets of each mover; None when they follow the window no better than no offset."""
+        """The fitted offsets of each mover; None when they follow the window no better than no offset. The fit
+        starts from :meth:`guess` where that follows the window better than the run's own state."""
         params = np.zeros(SIZE * len(self.movers))
         run = self.run_at(params)
         r = self.residual_of(run)
         cost = float(r @ r)
         before = cost
+        base = params
+        guessed = self.guess()
+        if np.any(guessed):
+            guessed = _physical(self.probe, self.traj, self.start, self.movers, guessed, self.allowed)
+            run_g = self.run_at(guessed)
+            r_g = self.residual_of(run_g)
+            if float(r_g @ r_g) < cost:
+                params, run, r, cost, base = guessed, run_g, r_g, float(r_g @ r_g), guessed
         for _ in range(ANCHOR_ITERATIONS):
             step = _damped_step(self.jacobian(params, run, r), r, _ANCHOR_STEP_LIMIT[:params.size])
             improved = False
             for alpha in ANCHOR_STEP_SCALES:
-                trial = _physical(self.probe, self.traj, self.start, self.movers, params + alpha * step, self.allowed)
+                trial = _physical(self.probe, self.traj, self.start, self.movers, params + alpha * step, self.allowed,
+                                  base)
                 run_t = self.run_at(trial)
                 rt = self.residual_of(run_t)
                 ct = float(rt @ rt)
@@ -883,15 +936,16 @@ def _damped_step(jac: np.ndarray, r: np.ndarray, limit: np.ndarray) -> np.ndarra
 
 
 def _physical(probe: GeometryProbe, traj: Trajectory, start: int, movers: Sequence[int], params: np.ndarray,
-              allowed: np.ndarray) -> np.ndarray:
+              allowed: np.ndarray, base: np.ndarray | None = None) -> np.ndarray:
     """``params`` (restart offsets of ``movers``, :data:`SIZE` each) with the pose offset (position, angle) of each
-    mover that would overlap the others deeper than ``allowed`` scaled back towards zero until it does not
-    (bisection)."""
+    mover that would overlap the others deeper than ``allowed`` drawn back towards ``base`` (default zero: the run's
+    own pose; a physical starting point of the fit) until it does not (bisection)."""
     params = params.copy()
+    origin = np.zeros_like(params) if base is None else base
 
     def depth(i: int, scale: float) -> float:
         trial = params.copy()
-        pose(trial, i)[:] *= scale
+        pose(trial, i)[:] = pose(origin, i) + scale * (pose(params, i) - pose(origin, i))
         _place(probe, traj, start, _offsets(movers, trial))
         return float(probe.overlap_depths([movers[i]])[0])
 
@@ -902,7 +956,7 @@ def _physical(probe: GeometryProbe, traj: Trajectory, start: int, movers: Sequen
         for _ in range(OVERLAP_BISECTIONS):
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if depth(i, mid) <= allowed[i] else (lo, mid)
-        pose(params, i)[:] *= lo
+        pose(params, i)[:] = pose(origin, i) + lo * (pose(params, i) - pose(origin, i))
     return params
 
 
