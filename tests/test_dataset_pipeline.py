@@ -12,6 +12,7 @@ from typing import Any
 
 import pytest
 
+import craft_dsl.dataset.questions  # noqa: F401 - the end-to-end runs need it; a broken import fails, never skips
 from craft_dsl.cli import main as cli_main
 from craft_dsl.dataset import pipeline as P
 from craft_dsl.dataset.instance import InstanceResult, InstanceTask
@@ -206,7 +207,7 @@ def test_writers_are_read_by_verify(tmp_path: Path) -> None:
     assert parse_split(json.loads(json.dumps(split)), "train") == {(1, 4), (3, 0), (3, 1)}
 
 
-# -- end to end (needs part A, craft_dsl.dataset.questions) ----------------------------------------------------
+# -- end to end (part A, craft_dsl.dataset.questions, imported above) -------------------------------------------
 
 SMALL = {"size": 4, "seed": 0, "scenes": (1, 2), "steps": 300, "perturbations": 1}
 
@@ -219,7 +220,6 @@ def hashes(folder: Path) -> dict[str, str]:
 
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, Any]]:
-    pytest.importorskip("craft_dsl.dataset.questions")
     out = tmp_path_factory.mktemp("reference")
     report = P.generate_dataset(P.GenerationConfig.make(**SMALL), out)
     return out, report

@@ -241,6 +241,52 @@ def test_duplicated_and_edited_node_lists_as_alone(sims: list[Simulation], monke
     assert all(codes[i] == codes[i + 1] == codes[i + 2] for i in range(0, len(codes), 3))
 
 
+def test_sampled_duplicates_as_alone(sims: list[Simulation]) -> None:
+    """Runs of equal node lists in other objects (as a sampler gives them: the benchmark's 8 copies), some runs
+    interleaved with edited copies, broken copies (a syntax error, a type error, a non-exact index, a list
+    marshal does not take) and the same object again, on one simulation and on one simulation per program:
+    every program gets the outcome it gets alone, and copies on other simulations do not share answers."""
+    import copy
+
+    class Index(int):
+        pass
+
+    rng = random.Random(17)
+    programs: list[Any] = []
+    on: list[Simulation] = []
+    plain: list[bool] = []
+    for sim in sims:
+        for _t, _p, p, _a in list(first_instances(sim, include_dropped=True))[:25]:
+            gold = p.to_nodes()
+            broken = copy.deepcopy(gold)
+            broken[-1]["type"] = "no_such_module"
+            typed = copy.deepcopy(gold)
+            typed[-1]["inputs"] = [0] if typed[-1]["inputs"] else []
+            chained = [k for k, node in enumerate(gold) if node["inputs"] == [0]]
+            odd = copy.deepcopy(gold)
+            for k in chained[:1]:
+                odd[k]["inputs"] = [rng.choice((False, 0.0, Index(0)))]  # == gold, read alone: not its duplicate
+            unmarshallable = copy.deepcopy(gold)
+            unmarshallable[0]["extra"] = object()
+            for base in (gold, broken, typed, odd, unmarshallable):
+                run = [copy.deepcopy(base) for _ in range(8)]
+                if rng.random() < 0.5:
+                    run[rng.randrange(8)] = _one_edit(base, rng)
+                    run[rng.randrange(8)] = run[0]  # the same object again
+                programs += run
+                on += [sim] * len(run)
+                plain += [base is not unmarshallable] * len(run)
+    for batch, batch_on in ((programs, on),  # a list marshal does not take: every list keyed on its own
+                            ([p for p, ok in zip(programs, plain) if ok], [s for s, ok in zip(on, plain) if ok])):
+        counts = assert_same(batch, batch_on, "nodes").counts()
+        assert all(counts.values()), counts
+        first = [p for p, s in zip(batch, batch_on) if s is sims[0]]
+        assert_same(first, sims[0], "nodes")
+        # The same copies alternating between two simulations: each copy answers on its own simulation.
+        pairs = [copy.deepcopy(batch[k]) for k in range(0, 200, 8) for _ in range(4)]
+        assert_same(pairs, [sims[k % 2] for k in range(len(pairs))], "nodes")
+
+
 @pytest.mark.parametrize("order", ["prefix", "postfix"])
 def test_token_list_batches_as_alone(sims: list[Simulation], order: str) -> None:
     """Batches of token lists only (read in single passes over the batch) with tokens the batch reader leaves to

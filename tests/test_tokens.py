@@ -8,7 +8,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from craft_dsl import INVALID, NodeListError, Program, Simulation, TokenError, TypeCheckError, parse
+from craft_dsl import (
+    INVALID,
+    NodeListError,
+    Program,
+    ProgramError,
+    SideInputError,
+    Simulation,
+    TokenError,
+    TypeCheckError,
+    parse,
+)
 from craft_dsl.parser import check_text, fast_check
 from craft_dsl.strategies import programs
 from craft_dsl.templates import DROPPED, templates
@@ -145,7 +155,7 @@ def test_type_errors_in_tokens_name_the_token_and_the_types() -> None:
 def test_unknown_fused_module_is_an_unknown_token() -> None:
     with pytest.raises(TokenError, match="unknown token 'FilterColour\\[red\\]'"):
         Program.from_tokens(["Count", "FilterColour[red]", "SceneAtStart"])
-    with pytest.raises(Exception, match="not a Color"):
+    with pytest.raises(SideInputError, match="not a Color"):
         Program.from_tokens(["Count", "FilterColor[pink]", "SceneAtStart"])
 
 
@@ -186,7 +196,7 @@ def test_fast_token_reader_never_disagrees_with_the_full_reader(words: list[str]
     fast = _fast_read(words, order == "prefix")
     try:
         full = check_tokens(words, order)  # type: ignore[arg-type]
-    except Exception:
+    except ProgramError:  # a wrong sequence; any other exception is a bug and fails the test
         assert fast is None  # the full reader words every error
         return
     assert fast is None or fast.nodes == full.nodes
@@ -203,7 +213,7 @@ def test_fast_text_reader_never_disagrees_with_the_grammar(pieces: list[str]) ->
         from craft_dsl.parser import parse_tree
 
         reference = check_tree(parse_tree(text))
-    except Exception:
+    except ProgramError:  # a wrong text; any other exception is a bug and fails the test
         assert fast is None
         return
     assert full is None or full.nodes == reference.nodes
@@ -272,8 +282,6 @@ def test_every_well_typed_program_round_trips_through_every_token_form(
 
 
 def test_a_lone_value_is_a_program_in_no_form() -> None:
-    from craft_dsl import ProgramError
-
     for text in ("0", "Var X = 3\nX", "-1"):
         with pytest.raises(ProgramError, match="lone value"):
             parse(text)
