@@ -24,6 +24,12 @@ own as ``<id6>.<ext>``, the names ``craft-dsl read --videos FOLDER`` finds:
   out_range=tv``: white at 235, black at 16), lossless H.264;
 * ``grade-strong``: ``eq=gamma=1.5:saturation=0.6`` (lighter mid-tones, paler colours), lossless H.264. The reader
   measures a graded video's colours against the palette and undoes the grading (``craft_dsl.reader.tone``).
+* ``crop-8``: cropped by 8 px on every side (``crop=iw-16:ih-16:8:8``: 240x240 from 256), lossless H.264. The reader
+  reads it at 256 px, flags it (its wall and ground lines are gone: ``craft_dsl.reader.whole``) and warns on every
+  answer; reading a cropped picture at its own scale and offset is not built;
+* ``letterbox-16x9``: black bars to 16:9 (``pad=ceil(ih*16/9/2)*2:ih:(ow-iw)/2:0:color=black``: 456x256), lossless
+  H.264; the reader finds the picture between the bars (``craft_dsl.reader.picture``);
+* ``pad-4x3-gray``: grey bars (``0x808080``) to 4:3 (342x256), lossless H.264.
 
 The reader measures the step offset of a resampled copy (``craft_dsl.reader.timing``); each resampled variant's row
 says how many of its videos were read at which offset.
@@ -39,12 +45,20 @@ points against ``original``, the questions it answers wrong that ``original`` an
 calibration of the answers' confidences over the test questions of both parts (expected calibration error, 10
 equal-width bins; the accuracy of the most confident 80%), videos whose layout was identified, fallback answers
 (guesses: ``fallback`` in ``craft-dsl read --details``), videos read with a warning (not whole), videos not read,
-seconds of perception per video (decoding included) and of encoding per video; then accuracy per paper sub-category
+seconds of perception per video (decoding included) and of encoding per video; then the answers each variant lost
+and gained against ``original`` per part and paper column; then the **paired intervals** (:func:`paired_intervals`):
+per variant, test part and paper column, the paired difference in points (the variant's accuracy minus
+``original``'s on the same questions) with its 95% interval from a bootstrap over videos (:func:`bootstrap_difference`:
+the videos resampled with replacement, :data:`RESAMPLES` times from seed :data:`SEED`: the questions of one video are
+read from one perception, so they are not independent), as ``diff [lo, hi]``, and a verdict on issue 57's goal: every
+interval's lower end above :data:`GOAL_LOW` points in columns C, CF and D of both parts, over at least
+:data:`GOAL_QUESTIONS` test questions; then accuracy per paper sub-category
 over the test questions of both parts; then what was checked of each variant's first copy (codec, size, frames; the
-step offset of resampled frames). ``--json OUT`` writes every figure, with how near whole copies come to the
+step offset of resampled frames). ``--json OUT`` writes every figure (the paired intervals as ``paired``), with how
+near whole copies come to the
 reader's cut-at-the-start warning (:mod:`craft_dsl.reader.whole`): the largest distance of one body, and of a
 video's median body, from the run fitted from the layout's start (``start_px_max``, ``start_px_median_max``).
-No randomness: the same inputs give the same figures (timings aside).
+No randomness but the bootstrap's, from a fixed seed: the same inputs give the same figures (timings aside).
 
 Each variant's reading imports ``craft_dsl`` afresh (its worker processes): in a checkout being edited, run it with
 ``PYTHONPATH`` at a snapshot (``git archive HEAD | tar -x -C SNAP``), or variants are read by different readers.
@@ -92,12 +106,21 @@ LOSSLESS_H264 = ("-c:v", "libx264", "-qp", "0", "-pix_fmt", "yuv420p")
 KEPT = 0.8
 #: The test parts read, as (split file stem, the paper's name).
 PARTS = (("random", "easy"), ("hard", "hard"))
+#: The bootstrap of the paired intervals: resamples of the videos, the generator's seed, the interval's level.
+RESAMPLES = 2000
+SEED = 0
+LEVEL = 0.95
+#: Issue 57's goal: every paired interval's lower end above this (points), in each paper column of each test part,
+#: over at least this many test questions.
+GOAL_LOW = -2.0
+GOAL_QUESTIONS = 1000
 
 
 @dataclass(frozen=True)
 class Variant:
     """One way of copying the videos: ffmpeg output options (empty: the files as generated, not copied), the
-    container, the encoder it needs, and what its copies hold (``size``, ``fps``: None = as the source)."""
+    container, the encoder it needs, and what its copies hold (``size``, ``fps``: None = as the source; ``crop``:
+    pixels cut from each side; ``aspect``: (width, height) the frame is padded to, its height kept)."""
 
     name: str
     suffix: str
@@ -106,6 +129,8 @@ class Variant:
     codec: str
     size: int | None = None
     fps: float | None = None
+    crop: int = 0
+    aspect: tuple[int, int] | None = None
 
     @property
     def copied(self) -> bool:
@@ -124,6 +149,12 @@ VARIANTS: dict[str, Variant] = {v.name: v for v in (
     # graded colours: a full-range picture read as limited range (washed out), and a strong grade (gamma, paler)
     Variant("range-tv", ".mp4", ("-vf", "scale=in_range=pc:out_range=tv", *LOSSLESS_H264), "libx264", "h264"),
     Variant("grade-strong", ".mp4", ("-vf", "eq=gamma=1.5:saturation=0.6", *LOSSLESS_H264), "libx264", "h264"),
+    # the picture's geometry: cropped (its border lines cut off), or boxed in bars to another aspect
+    Variant("crop-8", ".mp4", ("-vf", "crop=iw-16:ih-16:8:8", *LOSSLESS_H264), "libx264", "h264", crop=8),
+    Variant("letterbox-16x9", ".mp4", ("-vf", "pad=ceil(ih*16/9/2)*2:ih:(ow-iw)/2:0:color=black", *LOSSLESS_H264),
+            "libx264", "h264", aspect=(16, 9)),
+    Variant("pad-4x3-gray", ".mp4", ("-vf", "pad=ceil(ih*4/3/2)*2:ih:(ow-iw)/2:0:color=0x808080", *LOSSLESS_H264),
+            "libx264", "h264", aspect=(4, 3)),
 )}
 
 
@@ -205,9 +236,10 @@ def describe(path: Path) -> dict[str, Any]:
 
 def expected(variant: Variant, source_frames: int, source_size: int) -> dict[str, Any]:
     """What a copy of a video of ``source_frames`` 60 fps frames of ``source_size`` px should hold."""
-    size = variant.size or source_size
+    size = (variant.size or source_size) - 2 * variant.crop
+    width = size if variant.aspect is None else 2 * math.ceil(size * variant.aspect[0] / variant.aspect[1] / 2)
     frames = source_frames if variant.fps is None else len(frame_steps(source_frames, variant.fps))
-    return {"codec": variant.codec, "width": size, "height": size, "frames": frames}
+    return {"codec": variant.codec, "width": width, "height": size, "frames": frames}
 
 
 def step_offsets(source: Path, copy: Path, fps: float, reach: int | None = None) -> list[int]:
@@ -390,7 +422,8 @@ def paired_difference(base: dict[str, bool], other: dict[str, bool], keys: Itera
                       ) -> tuple[int, int, float, float, float]:
     """Answers ``other`` lost and gained against ``base`` over ``keys`` (both judge the same questions), the
     difference in points and its 95% interval (normal approximation for paired proportions: the spread comes from
-    the questions that changed)."""
+    the questions that changed, taken as independent; the tables print :func:`bootstrap_difference`'s interval,
+    which resamples videos)."""
     chosen = [k for k in keys if k in base]
     n = len(chosen)
     lost = sum(base[k] and not other.get(k, False) for k in chosen)
@@ -402,29 +435,107 @@ def paired_difference(base: dict[str, bool], other: dict[str, bool], keys: Itera
     return lost, gained, 100 * diff, 100 * (diff - half), 100 * (diff + half)
 
 
-def paired_lines(rows: dict[str, dict[str, Any]], tests: Suite) -> list[str]:
-    """A table of every variant's answers lost and gained against ``original``, per part and paper column, with
-    the difference's 95% interval: whether a cell over the goal's 2 points is a loss the questions establish."""
+def bootstrap_difference(base: dict[str, bool], other: dict[str, bool], keys: Iterable[str],
+                         resamples: int = RESAMPLES, seed: int = SEED, level: float = LEVEL
+                         ) -> tuple[float, float, float]:
+    """The paired difference in points of ``other``'s accuracy minus ``base``'s over ``keys`` (``"<video>_<question>"``;
+    keys ``base`` lacks are left out, a key ``other`` lacks is a wrong answer) and its ``level`` interval from a
+    bootstrap over videos: the videos (with all their questions) drawn with replacement ``resamples`` times from
+    ``numpy.random.default_rng(seed)``, each draw's difference its questions' changes over its questions, the
+    interval the draws' percentiles. The questions of one video share its perception, so their changes are not
+    independent: resampling questions would make the interval too narrow. (0, 0, 0) where no key is judged."""
+    changes: dict[str, list[int]] = {}
+    for k in keys:
+        if k in base:
+            changes.setdefault(k.split("_")[0], []).append(int(other.get(k, False)) - int(base[k]))
+    if not changes:
+        return 0.0, 0.0, 0.0
+    delta = np.array([sum(c) for c in changes.values()], dtype=np.float64)  # per video: answers gained - lost
+    count = np.array([len(c) for c in changes.values()], dtype=np.float64)  # per video: questions
+    diff = 100 * float(delta.sum() / count.sum())
+    draws = np.random.default_rng(seed).integers(0, len(delta), size=(resamples, len(delta)))
+    sampled = 100 * delta[draws].sum(axis=1) / count[draws].sum(axis=1)
+    tail = 100 * (1 - level) / 2
+    low, high = np.percentile(sampled, [tail, 100 - tail])
+    return diff, float(low), float(high)
+
+
+def _families(tests: Suite) -> dict[str, str]:
+    """The paper column of each question of ``tests``' dataset, by ``"<video>_<question>"``."""
+    return {f"{q.video_index}_{q.question_index}": family_of(q.template_id)
+            for q in read_minimal(tests.root / "dataset_minimal.json")}
+
+
+def paired_intervals(rows: dict[str, dict[str, Any]], tests: Suite) -> dict[str, Any]:
+    """Every variant's paired differences against ``original`` (:func:`bootstrap_difference`) per test part and
+    paper column (C, CF, D, All): {variant: {"parts": {split: {column: {diff, low, high, lost, gained, questions,
+    videos}}}, "goal_met", "short"}}, ``short``: the cells of C, CF and D whose interval's lower end is not above
+    :data:`GOAL_LOW`; ``goal_met``: none is, over at least :data:`GOAL_QUESTIONS` questions. Empty without
+    ``original`` or another variant read."""
     base = rows.get("original", {}).get("figures")
-    others = [(n, r["figures"]) for n, r in rows.items() if n != "original" and r.get("figures")]
+    others = [(n, r["figures"]) for n, r in rows.items() if n != "original" and r.get("figures")
+              and "reason" not in r]
     if base is None or not others:
+        return {}
+    family = _families(tests)
+    questions = len(set().union(*tests.parts.values()))
+    out: dict[str, Any] = {}
+    for name, fig in others:
+        parts: dict[str, Any] = {}
+        short = []
+        for split, paper in PARTS:
+            if not tests.parts[split]:
+                continue
+            keys = [f"{v}_{q}" for v, q in sorted(tests.parts[split])]
+            cells = {}
+            for col in (*FAMILIES, "All"):
+                chosen = [k for k in keys if col == "All" or family.get(k) == col]
+                lost, gained, *_ = paired_difference(base["correct"], fig["correct"], chosen)
+                diff, low, high = bootstrap_difference(base["correct"], fig["correct"], chosen)
+                judged = [k for k in chosen if k in base["correct"]]
+                cells[col] = {"diff": diff, "low": low, "high": high, "lost": lost, "gained": gained,
+                              "questions": len(judged), "videos": len({k.split("_")[0] for k in judged})}
+                if col != "All" and judged and low <= GOAL_LOW:
+                    short.append(f"{paper} {col}")
+            parts[split] = cells
+        out[name] = {"parts": parts, "short": short, "goal_met": not short and questions >= GOAL_QUESTIONS}
+    return out
+
+
+def paired_lines(rows: dict[str, dict[str, Any]], tests: Suite) -> list[str]:
+    """Two tables against ``original``, per part and paper column: every variant's answers lost and gained, and its
+    paired differences with their 95% intervals from the bootstrap over videos (:func:`paired_intervals`), with the
+    verdict on the goal (every lower end of C, CF and D above :data:`GOAL_LOW` points)."""
+    found = paired_intervals(rows, tests)
+    if not found:
         return []
-    family = {f"{q.video_index}_{q.question_index}": family_of(q.template_id)
-              for q in read_minimal(tests.root / "dataset_minimal.json")}
     parts = [(split, paper) for split, paper in PARTS if tests.parts[split]]
     cols = (*FAMILIES, "All")
-    lines = ["", "Against original, the same questions: answers lost / gained, points (95% interval):", "",
-             "| variant | " + " | ".join(f"{paper} {c}" for _s, paper in parts for c in cols) + " |",
-             "|" + "---|" * (1 + len(parts) * len(cols))]
-    for name, fig in others:
+    head = "| variant | " + " | ".join(f"{paper} {c}" for _s, paper in parts for c in cols)
+    rule = "|" + "---|" * (1 + len(parts) * len(cols))
+    lines = ["", "Against original, the same questions: answers lost / gained:", "", head + " |", rule]
+    for name, found_row in found.items():
+        counts = [found_row["parts"][s][c] for s, _p in parts for c in cols]
+        lines.append(f"| {name} | " + " | ".join(f"-{n['lost']} +{n['gained']}" for n in counts) + " |")
+    questions = len(set().union(*tests.parts.values()))
+    videos = len(tests.videos)
+    too_few = (f"; only {questions} test questions, the goal asks {GOAL_QUESTIONS:,}" if questions < GOAL_QUESTIONS
+               else "")
+    lines += ["", f"Paired differences against original, points (variant minus original on the same questions) "
+                  f"[{LEVEL:.0%} interval: bootstrap over the {videos} videos, {RESAMPLES} resamples, seed {SEED}]; "
+                  f"goal: every lower end of C, CF and D above {GOAL_LOW:+g} points{too_few}:", "",
+              head + " | goal |", rule + "---|"]
+    for name, found_row in found.items():
         cells = []
         for split, _paper in parts:
-            keys = [f"{v}_{q}" for v, q in sorted(tests.parts[split])]
             for col in cols:
-                chosen = [k for k in keys if col == "All" or family.get(k) == col]
-                lost, gained, diff, low, high = paired_difference(base["correct"], fig["correct"], chosen)
-                cells.append(f"-{lost} +{gained}, {diff:+.1f} ({low:+.1f} to {high:+.1f})")
-        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+                cell = found_row["parts"][split][col]
+                cells.append(f"{cell['diff']:+.1f} [{cell['low']:+.1f}, {cell['high']:+.1f}]")
+        if found_row["short"]:
+            verdict = "not met: " + ", ".join(found_row["short"])
+        else:
+            verdict = "met" if found_row["goal_met"] else "met on these questions (too few)"
+        lines.append(f"| {name} | " + " | ".join(cells) + f" | {verdict} |")
     return lines
 
 
@@ -683,7 +794,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         Path(args.json).write_text(json.dumps({"dataset": str(root), "videos": tests.videos, "workers": args.workers,
                                                "ffmpeg": exe, "elapsed_s": elapsed, "load": [load_before, load_after],
                                                "parts": {s: len(k) for s, k in tests.parts.items()},
-                                               "variants": rows}, indent=1, default=str))
+                                               "variants": rows, "paired": paired_intervals(rows, tests),
+                                               "bootstrap": {"resamples": RESAMPLES, "seed": SEED, "level": LEVEL,
+                                                             "unit": "video", "goal_low_points": GOAL_LOW,
+                                                             "goal_questions": GOAL_QUESTIONS}},
+                                              indent=1, default=str))
     return 0
 
 

@@ -1,11 +1,12 @@
 """benchmarks/reader_robustness.py: each variant's copy decodes with its codec, size and frame count; resampled
 frames show the steps stated (ffmpeg's ``fps=10`` 3 steps early, ``fps=5`` 6, ``fps=10:round=down`` the renderer's
-steps)."""
+steps); the paired intervals resample videos."""
 
 from __future__ import annotations
 
 import json
 import os
+from collections.abc import Collection
 from pathlib import Path
 from types import ModuleType
 
@@ -51,7 +52,8 @@ def test_every_variant_but_the_original_is_copied(rr: ModuleType, copies: dict[s
 
 
 @pytest.mark.parametrize("name", ["h264-crf28", "mpeg4-q8", "scale-128", "scale-512", "fps-10", "fps-10-down",
-                                  "fps-5", "range-tv", "grade-strong"])
+                                  "fps-5", "range-tv", "grade-strong", "crop-8", "letterbox-16x9",
+                                  "pad-4x3-gray"])
 def test_a_copy_decodes_with_its_codec_size_and_frames(rr: ModuleType, tiny: Path, copies: dict[str, Path],
                                                        name: str) -> None:
     variant = rr.VARIANTS[name]
@@ -63,8 +65,8 @@ def test_a_copy_decodes_with_its_codec_size_and_frames(rr: ModuleType, tiny: Pat
     assert {k: found[k] for k in want} == want
     assert found["fps"] == pytest.approx(variant.fps or 60)
     assert want["frames"] == (STEPS * variant.fps // 60 if variant.fps else STEPS)
-    frames = decode(copy)  # the reader's decoder
-    assert frames.shape == (want["frames"], want["height"], want["width"], 3)
+    frames = decode(copy)  # the reader's decoder: the square picture, between the bars of a boxed copy
+    assert frames.shape == (want["frames"], want["height"], want["height"], 3)
 
 
 def test_the_original_is_what_it_says(rr: ModuleType, tiny: Path) -> None:
@@ -141,9 +143,48 @@ def test_the_paired_table_is_printed_against_the_original(rr: ModuleType, users_
     worse = dict(original) | {keys[0]: False}
     rows = {"original": {"figures": {"correct": original}}, "worse": {"figures": {"correct": worse}}}
     lines = rr.paired_lines(rows, suite)
-    assert any(line.startswith("| worse | ") for line in lines)
-    assert "-1 +0" in next(line for line in lines if line.startswith("| worse | "))
+    counts, intervals = [line for line in lines if line.startswith("| worse | ")]
+    assert "-1 +0" in counts
+    assert "[" in intervals and intervals.rstrip(" |").split("| ")[-1].startswith("not met: ")  # a loss in 2 videos
     assert rr.paired_lines({"original": rows["original"]}, suite) == []  # nothing to pair
+    found = rr.paired_intervals(rows, suite)
+    assert list(found) == ["worse"] and found["worse"]["goal_met"] is False and found["worse"]["short"]
+    same = rr.paired_intervals({"original": rows["original"], "same": {"figures": {"correct": original}}}, suite)
+    assert same["same"]["short"] == []  # no difference: every lower end 0
+    assert same["same"]["goal_met"] is False  # but too few questions for the goal
+    assert all(cell["low"] == cell["high"] == 0.0 for part in same["same"]["parts"].values() for cell in part.values())
+
+
+def _answers(videos: int, questions: int, wrong: Collection[int] = ()) -> dict[str, bool]:
+    """Right answers to ``questions`` questions of each of ``videos`` videos, those of the videos ``wrong`` wrong."""
+    return {f"{v}_{q}": v not in wrong for v in range(videos) for q in range(questions)}
+
+
+def test_identical_answers_have_no_difference(rr: ModuleType) -> None:
+    base = _answers(10, 10) | {"3_0": False, "7_4": False}
+    assert rr.bootstrap_difference(base, base, base) == (0.0, 0.0, 0.0)
+    assert rr.bootstrap_difference(base, base, []) == (0.0, 0.0, 0.0)
+
+
+def test_a_video_lost_whole_gives_an_interval_over_videos(rr: ModuleType) -> None:
+    base = _answers(10, 10)
+    worse = _answers(10, 10, wrong={4})  # every answer of one video of ten wrong: -10 points
+    diff, low, high = rr.bootstrap_difference(base, worse, base)
+    assert diff == pytest.approx(-10.0)
+    assert low < -10.0 < high <= 0.0  # negative, containing the true value
+    assert low <= -20.0  # a draw holding the video twice or more: the questions of one video go together
+    _, _, _, normal_low, normal_high = rr.paired_difference(base, worse, base)
+    assert high - low > normal_high - normal_low  # wider than the questions' interval, which takes them as free
+    assert rr.bootstrap_difference(base, worse, base) == (diff, low, high)  # a fixed seed: the same interval
+
+
+def test_the_bootstrap_weighs_videos_by_their_questions(rr: ModuleType) -> None:
+    base = _answers(4, 5) | {f"9_{q}": True for q in range(20)}  # four videos of 5 questions, one of 20
+    worse = dict(base) | {f"9_{q}": False for q in range(20)}
+    diff, low, high = rr.bootstrap_difference(base, worse, base, resamples=500)
+    assert diff == pytest.approx(-50.0)  # 20 of 40 questions
+    assert low < -50.0 < high
+    assert rr.bootstrap_difference(base, {}, ["0_0", "8_8"])[0] == -100.0  # not answered: wrong; unknown: left out
 
 
 def test_calibration_of_a_variants_answers(rr: ModuleType) -> None:
@@ -202,7 +243,7 @@ def test_two_videos_in_two_variants(rr: ModuleType, users_dataset: Path, tmp_pat
 
 
 @pytest.mark.skipif(os.environ.get("CRAFT_DSL_SLOW") != "1",
-                    reason="reads 2 videos in all 10 variants (about 125 s on 2 busy cores): set CRAFT_DSL_SLOW=1")
+                    reason="reads 2 videos in all 13 variants (about 160 s on 2 busy cores): set CRAFT_DSL_SLOW=1")
 def test_the_whole_script_on_two_videos(rr: ModuleType, users_dataset: Path, tmp_path: Path,
                                         capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "figures.json"
