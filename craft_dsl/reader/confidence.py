@@ -70,8 +70,8 @@ OTHER_ENGINE = {"pymunk": "box2d", "box2d": "pymunk"}
 #: The package each physics engine needs.
 ENGINE_PACKAGES = {"pymunk": "pymunk", "box2d": "Box2D"}
 #: The confidence of an answer taken from the reading its question names (:mod:`craft_dsl.perception.premise`): the
-#: share of such answers that were right on development videos (43 of 51, 128-px copies; see docs/reader-history.md),
-#: rounded down.
+#: share of such answers that were right on development videos (43 of 51, 128-px copies; the reader's measurement
+#: history, ``git show 32f3360:docs/reader-history.md``), rounded down.
 PREMISE_RATE = 0.8
 #: Answer types by the program's result type name.
 ANSWER_TYPES: tuple[str, ...] = ("bool", "count", "color", "shape", "size")
