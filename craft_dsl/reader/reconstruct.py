@@ -23,7 +23,8 @@ by running the physics engine itself:
    fitted to the next frames by Levenberg-Marquardt, and the run goes on from there (:func:`reanchor`,
    :func:`stitch`), as long as each restart pushes the first stray later. A restart stays physical: no body is
    restarted sunk into a static or another body (:func:`overlaps`), where the engine's push back out would be a
-   collision the video never showed.
+   collision the video never showed. A body the run has lost by tens of pixels (after a chaotic contact) starts its
+   restart fit where the window's first frames show it (:meth:`_Restart.guess`).
 
 Time: frame ``k`` of the video shows the state after ``rows[k]`` steps (``k + 1`` at 60 fps; every 6th step at
 10 fps, :func:`craft_dsl.reader.video.steps_shown`); the runs are compared with the observations at those steps.
