@@ -218,7 +218,7 @@ def run_instance(task: InstanceTask, clock: StageClock | None = None) -> Instanc
 
             sim = simulate_fresh(task.scene, sim_seed, task.steps, meta={"scene": task.scene, "seed": sim_seed})
         else:
-            sim = simulate(_scene_of(task, sim_seed), seed=sim_seed, steps=task.steps, engine=engine)
+            sim = simulate(start_world(task, sim_seed), seed=sim_seed, steps=task.steps, engine=engine)
         sim.meta["video_filename"] = vpath
     media = _MediaJob(sim, task) if task.media else None
     shard = None
@@ -245,7 +245,7 @@ def run_instance(task: InstanceTask, clock: StageClock | None = None) -> Instanc
     return InstanceResult(task.instance_id, shard, files)
 
 
-def _scene_of(task: InstanceTask, sim_seed: int) -> WorldSpec:
+def start_world(task: InstanceTask, sim_seed: int) -> WorldSpec:
     """The start state to simulate: drawn by the task's sampler from its scene (a custom scene's layout where the
     task carries one)."""
     from ..scenes import layout_from_data

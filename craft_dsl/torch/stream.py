@@ -243,13 +243,13 @@ class CraftStream(IterableDataset[dict[str, Any]]):
 
     def simulation(self, index: int) -> Any:
         """The factual simulation of video ``index`` (live physics again: a few milliseconds)."""
-        from ..dataset.instance import _scene_of
+        from ..dataset.instance import start_world
         from ..physics import simulate
         from ..physics.live import get_engine
 
         task = self.task(index)
         sim_seed = instance_seeds(task.seed, index)[0]
-        return simulate(_scene_of(task, sim_seed), seed=sim_seed, steps=task.steps, engine=get_engine(task.engine))
+        return simulate(start_world(task, sim_seed), seed=sim_seed, steps=task.steps, engine=get_engine(task.engine))
 
     def render(self, index: int) -> np.ndarray:
         """The frames of video ``index`` as :attr:`frames_mode` asks, uint8 [T, H, W, 3]."""
