@@ -108,6 +108,41 @@ def test_two_bodies_of_one_colour_apart_count_as_two() -> None:
     assert count_per_color(close, frames) == {1: 1}
 
 
+def _body_with_a_speck_elsewhere(body_area: float) -> tuple[list[Blob], int]:
+    """A body of 272 px moving right along a row, and a speck of its colour (16-24 px) far from it in enough frames
+    to count as a second body of the colour (the original renderer's gray near another body's eyes); in frames 30-59
+    the speck is not seen and the body's blob measures ``body_area`` (its area varies from frame to frame)."""
+    frames = 60
+    out = []
+    for k in range(frames):
+        out.append(_blob(k, 40.0 + k, 100.0, 272.0 if k < 30 else body_area))
+        if k < 30:
+            out.append(_blob(k, 220.0, 240.0, 16.0 + 8.0 * (k % 2)))
+    return out, frames
+
+
+def test_a_body_s_larger_blob_is_its_own_while_the_only_other_body_of_its_colour_is_far_away() -> None:
+    # the speck's track is a body of the colour; the body's blob larger than its own area plus half the speck's is
+    # still the body's alone: the speck was last seen 180 px away, out of the blob's reach
+    pieces, frames = _body_with_a_speck_elsewhere(296.0)
+    assert count_per_color(pieces, frames) == {1: 2}
+    body = max(track(pieces, frames), key=lambda t: sum(b.area for b in t.blobs if b is not None))
+    assert len(body.seen()) == frames
+
+
+def test_a_blob_as_large_as_two_bodies_near_it_together_is_given_to_neither() -> None:
+    # a small body (60 px) moves 30 px from a large one (330 px), then one blob of 390 px covers both: it is neither's
+    frames = 60
+    pieces = []
+    for k in range(frames):
+        if k < 30:
+            pieces += [_blob(k, 40.0 + k, 100.0, 330.0), _blob(k, 40.0 + k, 130.0, 60.0)]
+        else:
+            pieces.append(_blob(k, 40.0 + k, 103.0, 390.0))
+    large, small = sorted(track(pieces, frames), key=lambda t: -max(b.area for b in t.blobs if b is not None))
+    assert large.seen() == list(range(30)) and small.seen() == list(range(30))
+
+
 def _still_track(color: str, core: tuple[float, float, float], frames: int, area: float, x: int
                  ) -> tuple[TrackedObject, np.ndarray]:
     """A track of one small blob at column ``x`` in every frame, and a strip of frames whose pixels there have the

@@ -227,15 +227,17 @@ def _pieces(candidates: Sequence[Blob]) -> set[int]:
 
 
 def _assign(previous: list[tuple[float, float] | None], areas: list[float | None], candidates: list[Blob]
-            ) -> list[Blob | None]:
-    """Give each body (by its last position and area) one of the frame's blobs, or none."""
+            ) -> tuple[list[Blob | None], dict[int, Blob]]:
+    """Give each body (by its last position and area) one of the frame's blobs, or none; and the bodies that a
+    blob covers together (:func:`_covered`), given to none of them, with that blob."""
     n = len(previous)
     out: list[Blob | None] = [None] * n
+    inside: dict[int, Blob] = {}
     if not candidates:
-        return out
+        return out, inside
     if n == 1:
         out[0] = max(candidates, key=lambda b: b.area)
-        return out
+        return out, inside
     unplaced = any(p is None for p in previous)  # a body with no position yet to be near
     if unplaced and len(candidates) > n:
         # more blobs than bodies: the extra blobs are pieces (a lossy video cuts a body at the frame's edge or along
@@ -256,22 +258,35 @@ def _assign(previous: list[tuple[float, float] | None], areas: list[float | None
     pairs.sort()
     used_i: set[int] = set()
     used_j: set[int] = set()
-    known = [a for a in areas if a]
-    total = sum(known)
-    # a blob of the bodies together must also be larger than the largest of them by a good part of the smallest (a
-    # speck of the colour that a lossy video shows elsewhere for a few frames, counted as a body, does not make the
-    # other body's own blob a pair)
-    together = max(0.8 * total, max(known) + 0.5 * min(known)) if known else 0.0
     for _cost, i, j in pairs:
         if i in used_i or j in used_j:
             continue
         b = candidates[j]
-        if total and len(known) == n and b.area > together and len(candidates) < n:
-            continue  # one blob as large as all the colour's bodies together: they touch
+        covered = _covered(b, previous, areas) if len(candidates) < n else []
+        if covered:  # one blob as large as the colour's bodies near it together: they touch
+            inside.update((t, b) for t in covered)
+            continue
         out[i] = b
         used_i.add(i)
         used_j.add(j)
-    return out
+    return out, {t: b for t, b in inside.items() if out[t] is None}
+
+
+def _covered(blob: Blob, previous: Sequence[tuple[float, float] | None], areas: Sequence[float | None]
+             ) -> list[int]:
+    """The bodies (indexes) that ``blob`` covers together, where it covers several of a colour's bodies that touch
+    (given their last positions and areas), else none: it is about as large as the bodies last seen within its reach
+    (its radius and :data:`JUMP_MARGIN_PX`) together, and larger than the largest of them by a good part of the
+    smallest. Only bodies within reach count: a speck of the colour elsewhere (a lossy video's, or the original
+    renderer's near another body's eyes), tracked as a body, does not make a body's own blob a pair."""
+    if any(not a for a in areas):
+        return []
+    reach = math.sqrt(blob.area / math.pi) + JUMP_MARGIN_PX
+    near = [i for i, p in enumerate(previous) if p is not None and math.hypot(blob.x - p[0], blob.y - p[1]) <= reach]
+    if len(near) < 2:
+        return []
+    known = [a for i in near if (a := areas[i])]
+    return near if blob.area > max(0.8 * sum(known), max(known) + 0.5 * min(known)) else []
 
 
 #: Velocities (pixels per step) from sightings further apart than this many steps are not used for the prediction.
@@ -314,7 +329,9 @@ def track(blobs: Sequence[Blob], frames: int, counts: dict[int, int] | None = No
                 assert rows is not None
                 previous = [_carried(seen[-1] if seen else None, seen[-2] if len(seen) > 1 else None, rows[k])
                             for seen in sightings]
-            chosen = _assign(previous, areas, by_frame.get((color, k), []))
+            chosen, inside = _assign(previous, areas, by_frame.get((color, k), []))
+            for i, covering in inside.items():  # a body in a blob with others moves with that blob
+                previous[i] = (covering.x, covering.y)
             for i, chosen_blob in enumerate(chosen):
                 if chosen_blob is not None:
                     tracks[i][k] = chosen_blob
