@@ -33,3 +33,16 @@ def test_ci_runs_the_readme_commands_read_from_readme() -> None:
     assert done.stdout.splitlines() == ["python -m pip install -e . && craft-dsl demo",
                                         "python -m pip install -e '.[dev]' && python -m pytest -q"]
     assert 'eval "$MAIN_CMD"' in ci and 'eval "$TEST_CMD"' in ci and '-m venv "$VENV"' in ci
+
+
+def test_ci_runs_the_harness_lines_read_from_readme() -> None:
+    """.ci/run runs README's evaluation-harness lines, every one of them, as README prints them."""
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+    function = ci[ci.index("readme_block() {"):]
+    function = function[:function.index("\n}\n") + 3]
+    script = function + 'readme_block "**Run the evaluation-harness tests**"'
+    done = subprocess.run(["bash", "-c", script], cwd=ROOT, capture_output=True, text=True, check=True)
+    lines = done.stdout.splitlines()
+    assert len(lines) == 3 and "-e '.[dev,lmms-eval,trl]'" in lines[0]
+    assert lines[-1] == "python -m pytest -q tests/test_harness_*.py"
+    assert '<<< "$HARNESS_CMDS"' in ci and 'eval "$line"' in ci
