@@ -69,8 +69,7 @@ def body_rows(index: int, video: Path, truth: list[Triple]) -> list[Row]:
         if len(named) != 1:
             continue
         classify_shape(obj, frames, background)  # measures the frames it samples
-        whole = [k for k in obj.seen() if not obj.blobs[k].touches_edge]  # type: ignore[union-attr]
-        features = _features(obj, whole)
+        features = _features(obj, obj.seen_whole())
         if len(features):
             area, radius, moment = np.median(features, axis=0).tolist()
             out.append((named[0][0], named[0][1], area, radius, moment))
