@@ -13,7 +13,7 @@ import pytest
 from scipy import ndimage as ndi
 
 from craft_dsl.physics import simulate
-from craft_dsl.reader import whole
+from craft_dsl.reader import video as reader_video
 from craft_dsl.reader.video import collect_unchecked
 from craft_dsl.reader.whole import BORDER_CONTRAST, border_contrast, cropped, cropped_video, first_pictures
 from craft_dsl.render import frames as render_frames
@@ -139,7 +139,7 @@ def test_only_cropped_copies_are_flagged(video: Path, copies: dict[str, Path]) -
 def test_the_ffmpeg_decoder_reads_the_same_pictures(copies: dict[str, Path], monkeypatch: pytest.MonkeyPatch
                                                     ) -> None:
     ours = {name: first_pictures(copies[name]) for name in ("letterbox-16x9", "crop-8", "scale-512")}
-    monkeypatch.setattr(whole, "have_pyav", lambda: False)
+    monkeypatch.setattr(reader_video, "have_pyav", lambda: False)
     for name, (frames, side) in ours.items():
         theirs, their_side = first_pictures(copies[name])
         assert theirs.shape == frames.shape and their_side == side

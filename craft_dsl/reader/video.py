@@ -106,7 +106,7 @@ def _check_file(path: Path) -> None:
         raise ReaderError(f"{path}: the video file is empty")
 
 
-def _decode_pyav(path: Path, size: int | None = None) -> Decoded:
+def _decode_pyav(path: Path, size: int | None = None, limit: int | None = None) -> Decoded:
     import av
 
     raw_mpeg = path.suffix.lower() == ".mpg"
@@ -119,10 +119,11 @@ def _decode_pyav(path: Path, size: int | None = None) -> Decoded:
         stream = container.streams.video[0]
         stream.thread_type = "NONE"
         width, height = int(stream.width), int(stream.height)
-        decoded = _timed(container.decode(stream), times)
+        decoded = _timed(itertools.islice(container.decode(stream), limit), times)
+        expected = _expected_frames(stream) if limit is None else min(_expected_frames(stream), limit)
         if width == height:
             picture = Picture.whole(width, height)
-            frames = _FrameBuffer(_expected_frames(stream), size or width)
+            frames = _FrameBuffer(expected, size or width)
             to_rgb = rgb_converter(**_scaling(width, height, size))
             for f in decoded:
                 frames.append(to_rgb(f))
@@ -136,7 +137,7 @@ def _decode_pyav(path: Path, size: int | None = None) -> Decoded:
                 raise ReaderError(f"{path}: the video has no frames")
             native = rgb_converter()
             picture = find_picture(np.stack([native(f) for f in first]))
-            frames = _FrameBuffer(_expected_frames(stream), size or picture.side)
+            frames = _FrameBuffer(expected, size or picture.side)
             _square_pictures(stream, picture, size or picture.side, itertools.chain(first, decoded), frames.append)
     except ReaderError:
         raise
@@ -295,18 +296,19 @@ def _ffmpeg_frames(exe: str, path: Path, width: int, height: int, options: list[
     return data.reshape(-1, height, width, 3)
 
 
-def _decode_ffmpeg(path: Path, size: int | None = None) -> Decoded:
+def _decode_ffmpeg(path: Path, size: int | None = None, limit: int | None = None) -> Decoded:
     import imageio_ffmpeg
 
     exe = imageio_ffmpeg.get_ffmpeg_exe()
     width, height = _probe_size(path, exe)
+    first = PICTURE_FRAMES if limit is None else min(PICTURE_FRAMES, limit)
     if width == height:
         picture = Picture.whole(width, height)
     else:
-        picture = find_picture(_ffmpeg_frames(exe, path, width, height, ["-frames:v", str(PICTURE_FRAMES)]))
+        picture = find_picture(_ffmpeg_frames(exe, path, width, height, ["-frames:v", str(first)]))
     side = size or picture.side
     filters = ",".join(f"{name}={args}" for name, args in _picture_filters(picture, side))
-    options = ["-vf", filters] if filters else []
+    options = (["-frames:v", str(limit)] if limit is not None else []) + (["-vf", filters] if filters else [])
     return Decoded(_ffmpeg_frames(exe, path, side, side, options), picture)
 
 
@@ -337,8 +339,11 @@ def decode_sized(path: str | os.PathLike[str], decoder: Decoder = "auto", size: 
     return decoded.frames, decoded.picture.side
 
 
-def decode_video(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | None = None) -> Decoded:
-    """:func:`decode`'s frames, where the picture lies in the video's own frames, and the frames' times."""
+def decode_video(path: str | os.PathLike[str], decoder: Decoder = "auto", size: int | None = None,
+                 limit: int | None = None) -> Decoded:
+    """:func:`decode`'s frames, where the picture lies in the video's own frames, and the frames' times; ``limit``:
+    only the first ``limit`` frames (the picture found in them where there are fewer than
+    :data:`~craft_dsl.reader.picture.PICTURE_FRAMES`)."""
     target = Path(path)
     _check_file(target)
     if decoder not in DECODERS:
@@ -347,8 +352,8 @@ def decode_video(path: str | os.PathLike[str], decoder: Decoder = "auto", size: 
         if not have_pyav():
             raise ReaderError("the pyav decoder needs PyAV, a dependency of craft-dsl that is missing here: "
                               "pip install 'av>=12'")
-        return _decode_pyav(target, size)
-    return _decode_ffmpeg(target, size)
+        return _decode_pyav(target, size, limit)
+    return _decode_ffmpeg(target, size, limit)
 
 
 #: The MPEG sequence end code, the last four bytes of a whole MPEG-1 elementary stream (``.mpg``, as craft_dsl and

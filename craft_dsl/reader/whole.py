@@ -23,31 +23,17 @@ shows. Five things say a video is not whole:
 
 from __future__ import annotations
 
-import itertools
 import math
 import os
 from collections.abc import Mapping
-from pathlib import Path
 
 import numpy as np
 
 from ..errors import ReaderError
 from ..render.raster import DEFAULT_SIZE, SIM_FPS
 from .perceive import Perception
-from .picture import PICTURE_FRAMES, Picture, find_picture
-from .video import (
-    RUN_STEPS,
-    _ffmpeg_frames,
-    _picture_filters,
-    _probe_size,
-    _scaling,
-    _square_pictures,
-    collect_unchecked,
-    have_pyav,
-    incomplete,
-    not_checked,
-    rgb_converter,
-)
+from .picture import PICTURE_FRAMES
+from .video import RUN_STEPS, collect_unchecked, decode_video, incomplete, not_checked
 
 #: Pixels: a body whose run, fitted from the start, is further than this from its track, on average over the first
 #: fit's frames, does not start where the layout starts it.
@@ -157,50 +143,10 @@ def first_pictures(path: str | os.PathLike[str], count: int = PICTURE_FRAMES, si
                    ) -> tuple[np.ndarray, int]:
     """The first ``count`` frames of the video at ``path`` as the reader reads them (uint8 [n, size, size, 3]: the
     picture found in frames that are not square, :func:`~craft_dsl.reader.picture.find_picture`, rescaled to
-    ``size``), and the picture's own side (pixels). PyAV where installed, else the ``ffmpeg`` decoder, as
-    :func:`~craft_dsl.reader.video.decode_video`; :class:`ReaderError` where it cannot be decoded."""
-    target = Path(path)
-    if not have_pyav():
-        import imageio_ffmpeg
-
-        exe = imageio_ffmpeg.get_ffmpeg_exe()
-        width, height = _probe_size(target, exe)
-        limit = ["-frames:v", str(count)]
-        picture = (Picture.whole(width, height) if width == height
-                   else find_picture(_ffmpeg_frames(exe, target, width, height, limit)))
-        filters = ",".join(f"{name}={args}" for name, args in _picture_filters(picture, size))
-        return _ffmpeg_frames(exe, target, size, size, [*limit, *(["-vf", filters] if filters else [])]), picture.side
-    import av
-
-    try:
-        container = av.open(str(target), format="mpegvideo" if target.suffix.lower() == ".mpg" else None)
-    except Exception as err:  # noqa: BLE001 - PyAV raises its own error classes
-        raise ReaderError(f"{target}: cannot be decoded ({err})") from None
-    try:
-        stream = container.streams.video[0]
-        stream.thread_type = "NONE"
-        width, height = int(stream.width), int(stream.height)
-        first = list(itertools.islice(container.decode(stream), count))
-        if not first:
-            raise ReaderError(f"{target}: the video has no frames")
-        out: list[np.ndarray] = []
-        if width == height:  # as the reader's decoder rescales a square picture
-            picture = Picture.whole(width, height)
-            to_rgb = rgb_converter(**_scaling(width, height, size))
-            out = [to_rgb(f) for f in first]
-        else:
-            native = rgb_converter()
-            picture = find_picture(np.stack([native(f) for f in first]))
-            _square_pictures(stream, picture, size, first, out.append)
-    except ReaderError:
-        raise
-    except Exception as err:  # noqa: BLE001
-        raise ReaderError(f"{target}: cannot be decoded ({err})") from None
-    finally:
-        container.close()
-    if not out:
-        raise ReaderError(f"{target}: the video has no frames")
-    return np.stack(out), picture.side
+    ``size``), and the picture's own side (pixels): :func:`~craft_dsl.reader.video.decode_video` limited to them.
+    :class:`ReaderError` where it cannot be decoded."""
+    decoded = decode_video(path, size=size, limit=count)
+    return decoded.frames, decoded.picture.side
 
 
 def cropped_video(path: str | os.PathLike[str]) -> str | None:
