@@ -50,6 +50,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from ..perception.coords import to_metres
 from ..perception.events import GeometryProbe
 from ..perception.params import ANGLE, POSITION, SIZE, SPIN, VELOCITY, VX, VY, X, Y, block, per_component, pose
 from ..physics.engine import ContactLog, PhysicsEngine, RawRun, splice
@@ -254,8 +255,6 @@ def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Seque
     entries); one hidden at first, by its x alone."""
     starts = _slot_starts(model, values)
     cost = np.zeros((len(objects), len(starts)))
-    from ..perception.coords import to_metres
-
     for i, obj in enumerate(objects):
         seen = obj.seen()
         first = seen[0] if seen else 0
@@ -525,8 +524,6 @@ def _initial_units(fit: StartFit) -> np.ndarray:
     """Start positions from the first sightings (the middle of the range for the rest); where the first frame shows
     a later step than the first (a video of fewer than 60 fps), carried back to the start by the velocity of the
     first two sightings."""
-    from ..perception.coords import to_metres
-
     units = np.full(len(fit.paths), 0.5)
     bounds = fit.model.bounds(fit.static_values)
     for j, path in enumerate(fit.paths):
@@ -861,8 +858,6 @@ class _Restart:
         the window) where the window shows it: position and velocity of a least-squares line through its first
         :data:`GUESS_FRAMES` observations (a colour centroid less its eye bias at the run's angle); its angle and spin,
         and every mover the run has not lost, keep the run's. Zero where nothing is lost."""
-        from ..perception.coords import to_metres
-
         params = np.zeros(SIZE * len(self.movers))
         fit, start, last = self.start_fit, self.start, self.traj.positions.shape[0] - 1
         slot_of = {uid: s for s, uid in enumerate(fit.uids)}
