@@ -91,3 +91,30 @@ def test_perceived_events_imply_a_log_that_gives_them_back(scene: int, seed: int
         true = sim.raw.log.contacts[key]
         assert [s for s, _ in intervals] == [s for s, _ in true], key
         assert all(abs(e - f) <= 1 for (_, e), (_, f) in zip(intervals, true)), key
+
+
+def test_a_pair_s_touching_parts_need_only_the_pair_placed_and_are_kept() -> None:
+    """The pair geometry places only the pair's own bodies and keeps each (pair, frame) answer: every answer equals
+    the one a probe with every body placed gives, asked in another order and asked again."""
+    from craft_dsl.perception.events import GeometryProbe, _free_flight, _PairGeometry, _row
+
+    sim = simulate(3, 7, engine=PRECISION_ENGINE)
+    model = SceneModel(export_perceived(sim))
+    world, states = model.physics.world, model.states
+    geometry = _PairGeometry(world, states, 0.02)
+    full = GeometryProbe(world, 0.02)
+    columns = {b.uid: i for i, b in enumerate(world.bodies)}
+    pairs = sorted({(e.objects[0], e.objects[1]) for e in sim.events if len(e.objects) == 2})
+    assert pairs
+    met = 0
+    for frame in list(range(0, states.steps, 7)) + list(range(states.steps - 1, 0, -11)):
+        for a, b in pairs:
+            mover = a if a in full.plain_shapes else b
+            expected: set[tuple[int, int, int, int]] = set()
+            for pos, ang in (_row(states, frame + 1), _free_flight(states, frame, world.gravity)):
+                full.place(pos, ang, columns)
+                expected |= {k for k in full.touching([mover]) if {k[0], k[2]} == {a, b}}
+            assert geometry.touching_parts(a, b, frame) == expected, (a, b, frame)
+            met += bool(expected)
+    assert met  # some pairs do touch in the frames asked
+    assert geometry.touching_parts(*pairs[0], states.steps) == frozenset()

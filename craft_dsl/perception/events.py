@@ -155,6 +155,19 @@ class GeometryProbe:
             set_angle(body, float(angles[i]))
             reindex(space, body)
 
+    def place_bodies(self, uids: Sequence[int], positions: np.ndarray, angles: np.ndarray,
+                     columns: Mapping[int, int]) -> None:
+        """Move only the dynamic bodies ``uids`` to their row values (the others stay where they were): enough for
+        a question about those bodies alone."""
+        set_position, set_angle, reindex, space = (_lib.cpBodySetPosition, _lib.cpBodySetAngle,
+                                                   _lib.cpSpaceReindexShapesForBody, self._space)
+        for uid in uids:
+            body = self.bodies[uid]._body
+            i = columns[uid]
+            set_position(body, (float(positions[i, 0]), float(positions[i, 1])))
+            set_angle(body, float(angles[i]))
+            reindex(space, body)
+
     def touching(self, uids: Sequence[int] | None = None) -> set[PairKey]:
         """Every touching shape pair involving a dynamic body (or one of ``uids``), in the current placement."""
         out: set[PairKey] = set()
@@ -281,21 +294,30 @@ class _PairGeometry:
         self.states = states
         self.world = world
         self.columns = {b.uid: i for i, b in enumerate(world.bodies)}
+        self._found: dict[tuple[int, int, int], frozenset[PairKey]] = {}
 
-    def _parts(self, a: int, b: int, samples: Sequence[tuple[np.ndarray, np.ndarray]]) -> set[PairKey]:
+    def _parts(self, a: int, b: int, samples: Sequence[tuple[np.ndarray, np.ndarray]]) -> frozenset[PairKey]:
         mover = a if a in self.probe.plain_shapes else b
+        moved = [uid for uid in (a, b) if uid in self.probe.plain_shapes]  # only the pair's own contacts are kept
         found: set[PairKey] = set()
         for pos, ang in samples:
-            self.probe.place(pos, ang, self.columns)
+            self.probe.place_bodies(moved, pos, ang, self.columns)
             found |= {key for key in self.probe.touching([mover]) if {key[0], key[2]} == {a, b}}
-        return found
+        return frozenset(found)
 
-    def touching_parts(self, a: int, b: int, frame: int) -> set[PairKey]:
+    def touching_parts(self, a: int, b: int, frame: int) -> frozenset[PairKey]:
         """The pair's touching parts in ``frame``: at its end, or in the free-flight prediction (a brief contact's
-        end is estimated without the start-of-frame state: a bounce separates at once)."""
+        end is estimated without the start-of-frame state: a bounce separates at once). Kept per (pair, frame): a
+        pair's contacts are looked up again for each of its events near that frame."""
         if frame >= self.states.steps:
-            return set()
-        return self._parts(a, b, [_row(self.states, frame + 1), _free_flight(self.states, frame, self.world.gravity)])
+            return frozenset()
+        key = (a, b, frame)
+        found = self._found.get(key)
+        if found is None:
+            found = self._parts(a, b, [_row(self.states, frame + 1),
+                                       _free_flight(self.states, frame, self.world.gravity)])
+            self._found[key] = found
+        return found
 
     def inside(self, basket: int, body: int, frame: int) -> bool:
         if frame >= self.states.steps:
