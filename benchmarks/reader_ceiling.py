@@ -34,6 +34,7 @@ from typing import Any
 
 from reader import generation_settings, held_out_questions
 
+from craft_dsl.dataset.samplers import start_state
 from craft_dsl.errors import CraftError
 from craft_dsl.physics import simulate
 from craft_dsl.program import Program, to_json
@@ -59,8 +60,10 @@ def _answers(sim: Any, programs: list[Program]) -> list[Any]:
 
 
 def run_video(path: str, questions: list[Question], scene: int, seed: int, steps: int,
-              engines: list[str]) -> dict[str, Any]:
-    """Every row's answers to one video's test questions (``"<row>": [answer per question]``) and timings."""
+              engines: list[str], sampler: str) -> dict[str, Any]:
+    """Every row's answers to one video's test questions (``"<row>": [answer per question]``) and timings. The
+    true start is the one the dataset's ``sampler`` drew for (scene, seed): the original's own sampler draws
+    another scene than our layouts for the same pair."""
     programs = [question_to_program(q.text) for q in questions]
     rows: dict[str, list[Any]] = {}
     seconds: dict[str, float] = {}
@@ -74,17 +77,17 @@ def run_video(path: str, questions: list[Question], scene: int, seed: int, steps
         rows[READER] = [a.answer for a in answer_questions(perception.scene, questions)]
         fitted = perception.reconstruction.simulation.world_spec
     seconds[READER] = time.perf_counter() - t
-    starts: tuple[tuple[str, int | WorldSpec | None, int], ...] = (("true start", scene, seed),
-                                                                    ("reader's start", fitted, 0))
+    starts: tuple[tuple[str, WorldSpec | None], ...] = (("true start", start_state(scene, seed, sampler)),
+                                                        ("reader's start", fitted))
     for engine in engines:
-        for name, start, start_seed in starts:
+        for name, start in starts:
             label = f"{engine} from the {name}"
             if start is None:
                 rows[label] = rows[READER]  # the reader failed: nothing fitted
                 continue
             t = time.perf_counter()
             try:
-                sim = simulate(start, seed=start_seed, steps=steps, engine=engine)
+                sim = simulate(start, steps=steps, engine=engine)
                 rows[label] = _answers(sim, programs)
             except CraftError as err:
                 rows[label] = [f"error: {err}"] * len(questions)
@@ -138,7 +141,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--json", help="write every row's answers here")
     args = parser.parse_args(argv)
     root = Path(args.dataset)
-    own, steps, _ = generation_settings(root)
+    own, steps, sampler = generation_settings(root)
     engines = [own] + [e for e in args.engines.split(",") if e and e != own]
     tests = held_out_questions(root)
     videos = sorted(tests.by_video)[: args.limit] if args.limit else sorted(tests.by_video)
@@ -146,7 +149,8 @@ def main(argv: list[str] | None = None) -> None:
     jobs = []
     for v in videos:
         stats = json.loads((root / "questions" / f"qa_{v:06d}.json").read_text())["stats"]
-        jobs.append((str(paths[v]), tests.by_video[v], stats["scene"], stats["simulation_seed"], steps, engines))
+        jobs.append((str(paths[v]), tests.by_video[v], stats["scene"], stats["simulation_seed"], steps, engines,
+                     sampler))
     t0 = time.perf_counter()
     results = []
     with ProcessPoolExecutor(max_workers=args.workers) if args.workers > 1 else nullcontext() as pool:
