@@ -21,10 +21,11 @@ from craft_dsl.evaluator import (
     operation,
     run_operations,
 )
+from craft_dsl.ir import RawNode
 from craft_dsl.recorded import simulation_dict
 from craft_dsl.strategies import programs
 from craft_dsl.templates import first_instances
-from craft_dsl.types import INVALID
+from craft_dsl.types import INVALID, DslType
 
 
 @pytest.fixture(scope="module")
@@ -64,13 +65,17 @@ def test_drawn_programs_answer_alike_interpreted_and_compiled(e1: Simulation, pr
     assert all(r is INVALID for r in runs) or all(r == runs[0] for r in runs)
 
 
+def _node(module: str | None, inputs: tuple[int, ...] = (), values: tuple[str, ...] = ()) -> RawNode:
+    return (module, inputs, values, DslType.OBJECT_SET, 0)
+
+
 def test_each_call_shape_has_its_operation() -> None:
-    assert operation((None, (), ("red",), None, None))[0] == LITERAL
-    assert operation(("SceneAtStart", (), (), None, None))[0] == NO_INPUT
-    assert operation(("Count", (0,), (), None, None))[0] == ONE
-    assert operation(("FilterColor", (0,), ("red",), None, None))[0] == ONE_SIDE
-    assert operation(("Union", (0, 1), (), None, None))[0] == TWO
-    assert operation(("Union", (0, 1), ("x",), None, None))[0] == OTHER
+    assert operation(_node(None, values=("red",)))[0] == LITERAL
+    assert operation(_node("SceneAtStart"))[0] == NO_INPUT
+    assert operation(_node("Count", (0,)))[0] == ONE
+    assert operation(_node("FilterColor", (0,), ("red",)))[0] == ONE_SIDE
+    assert operation(_node("Union", (0, 1)))[0] == TWO
+    assert operation(_node("Union", (0, 1), ("x",)))[0] == OTHER
 
 
 def test_a_failing_module_raises_from_a_plan_and_is_invalid_in_a_batch(e1: Simulation) -> None:
@@ -91,7 +96,6 @@ def test_a_failing_module_raises_from_a_plan_and_is_invalid_in_a_batch(e1: Simul
 
 
 def test_only_the_needed_nodes_run() -> None:
-    nodes = (("SceneAtStart", (), (), None, None), ("Events", (), (), None, None),
-             ("Count", (0,), (), None, None))
+    nodes = (_node("SceneAtStart"), _node("Events"), _node("Count", (0,)))
     assert needed_nodes(nodes, 2) == [0, 2]
     assert needed_nodes(nodes, 1) == [1]
