@@ -531,3 +531,92 @@ def test_nothing_outlives_a_batch(sims: list[Simulation]) -> None:
     assert small < big * 0.6, (small, big)
     assert (len(checker._NO_OVERLOAD), len(checker._INPUT_TYPES), len(checker.RESOLUTIONS)) == tables
     assert not [o for o in gc.get_objects() if type(o) is batch_module._Batch]
+
+
+# -- near duplicates: equal under ==, not the same program ------------------------------------------------------
+
+
+class _Word(str):
+    pass
+
+
+class _Index(int):
+    pass
+
+
+class _Node(dict):
+    pass
+
+
+class _Inputs(list):
+    pass
+
+
+#: How a twin of a node list differs from it while equal to it under == (or, for the last two, not equal at all).
+TWINS = ("bool index", "float index", "int subclass index", "numpy index", "str subclass name",
+         "str subclass side", "key order", "dict subclass", "list subclass inputs", "str side / int side",
+         "tuple inputs")
+
+
+def _twin(nodes: list[dict[str, Any]], kind: str, at: int) -> tuple[list[Any], list[Any]]:
+    """(a list, its twin): ``nodes`` and a copy with node ``at`` changed as ``kind`` says (see :data:`TWINS`);
+    a kind that does not apply to the node list changes its last node's name to a str subclass."""
+    import copy
+
+    base: list[Any] = copy.deepcopy(nodes)
+    twin: list[Any] = copy.deepcopy(nodes)
+    k = at % len(nodes)
+    node = twin[k]
+    inputs = [j for j, node in enumerate(nodes) if node["inputs"]]
+    sided = [j for j, node in enumerate(nodes) if node.get("value_inputs")]
+    if kind.endswith(" index") and inputs:
+        node = twin[inputs[at % len(inputs)]]
+        i = node["inputs"][0]
+        if kind == "bool index" and i in (0, 1):
+            node["inputs"][0] = bool(i)
+        elif kind == "int subclass index":
+            node["inputs"][0] = _Index(i)
+        elif kind == "numpy index":
+            node["inputs"][0] = np.int64(i)
+        else:
+            node["inputs"][0] = float(i)
+    elif kind == "str subclass side" and sided:
+        node = twin[sided[at % len(sided)]]
+        node["value_inputs"][0] = _Word(node["value_inputs"][0])
+    elif kind == "str side / int side" and sided:
+        j = sided[at % len(sided)]
+        base[j]["value_inputs"][0] = "1"
+        twin[j]["value_inputs"][0] = 1
+    elif kind == "key order":
+        twin[k] = dict(reversed(node.items()))
+    elif kind == "dict subclass":
+        twin[k] = _Node(node)
+    elif kind == "list subclass inputs":
+        node["inputs"] = _Inputs(node["inputs"])
+    elif kind == "tuple inputs":
+        node["inputs"] = tuple(node["inputs"])
+    else:
+        twin[-1]["type"] = _Word(twin[-1]["type"])
+    return base, twin
+
+
+@SETTINGS
+@given(nodes=node_lists(), kind=st.sampled_from(TWINS), at=st.integers(0, 100),
+       picks=st.lists(st.tuples(st.booleans(), st.booleans()), min_size=2, max_size=12),
+       per_program=st.booleans(), as_tuple=st.booleans())
+def test_drawn_near_duplicates_as_alone(e1: Simulation, nodes: list[dict[str, Any]], kind: str, at: int,
+                                        picks: list[tuple[bool, bool]], per_program: bool, as_tuple: bool) -> None:
+    """A node list and its twin (equal under ==, or nearly: a bool, float, int subclass or numpy index for an
+    int, a str subclass, another key order, a dict or list subclass; a str side value for an int one), each as
+    fresh copies or as the same object again, in any order, on one simulation or on two in turn: every program
+    gets its outcome alone, so no two of them were read as one unless they are the same program."""
+    import copy
+
+    base, twin = _twin(nodes, kind, at)
+    batch: list[Any] = []
+    for is_twin, fresh in picks:
+        program = twin if is_twin else base
+        batch.append(copy.deepcopy(program) if fresh else program)
+    on = [e1 if k % 2 or not per_program else _basic() for k in range(len(batch))]
+    programs: Sequence[Any] = tuple(batch) if as_tuple else batch
+    assert_same(programs, on if per_program else _basic(), "nodes")
