@@ -45,9 +45,10 @@ from ..errors import (
     EvaluationError,
     ProgramError,
 )
+from ..evaluator import Operation, operation, run_operations
 from ..ir import RawNode, Value
 from ..parser import Frame, GiveUp, scan_calls
-from ..registry import IMPLS, NAMES, ModuleSpec
+from ..registry import NAMES, ModuleSpec
 from ..simulation import Simulation
 from ..tokens import INTEGER_TOKEN, ORIGINAL_TO_OURS, token_kinds
 from ..types import INVALID, integer_literal
@@ -199,7 +200,7 @@ class _Batch:
         self.cache = ProgramCache(maxsize=1 << 30)
         self.schedules: dict[int, tuple[int, ...]] = {}
         self.roots_met: set[int] = set()
-        self.ops: list[_Operation] = []
+        self.ops: list[Operation] = []
 
     # -- tokens ------------------------------------------------------------------------------------------
 
@@ -687,25 +688,10 @@ class _Batch:
                     needed.add(j)
                     stack.append(j)
 
-    def _operations(self) -> list[_Operation]:
-        """One operation per node of the table (see :data:`_Operation`)."""
-        ops, nodes = self.ops, self.nodes
-        for module, inputs, values, _type, _overload in nodes[len(ops):]:
-            if module is None:
-                ops.append((_LITERAL, None, 0, 0, values[0]))
-                continue
-            impl = IMPLS[module]
-            n = len(inputs)
-            if n == 1 and not values:
-                ops.append((_ONE, impl, inputs[0], 0, None))
-            elif n == 1 and len(values) == 1:
-                ops.append((_ONE_SIDE, impl, inputs[0], 0, values[0]))
-            elif n == 0 and not values:
-                ops.append((_NONE, impl, 0, 0, None))
-            elif n == 2 and not values:
-                ops.append((_TWO, impl, inputs[0], inputs[1], None))
-            else:
-                ops.append((_OTHER, impl, 0, 0, (inputs, values)))
+    def _operations(self) -> list[Operation]:
+        """The table's nodes as the evaluator's operations (the nodes added since the last call are added)."""
+        ops = self.ops
+        ops.extend(map(operation, self.nodes[len(ops):]))
         return ops
 
     def evaluate(self, sim: Simulation, roots: Sequence[int]) -> dict[int, Any]:
@@ -733,37 +719,9 @@ class _Batch:
                     self._walk(r, needed)
             order = sorted(needed)
         ops = self.ops if len(self.ops) == len(nodes) else self._operations()
-        one, one_side, literal, none, two = _ONE, _ONE_SIDE, _LITERAL, _NONE, _TWO
         slots: dict[int, Any] = {}
-        invalid = INVALID
-        for g in order:
-            code, impl, a, b, v = ops[g]
-            try:
-                if code == one:
-                    x = slots[a]
-                    slots[g] = invalid if x is invalid else impl(sim, x)
-                elif code == one_side:
-                    x = slots[a]
-                    slots[g] = invalid if x is invalid else impl(sim, x, v)
-                elif code == literal:
-                    slots[g] = v
-                elif code == none:
-                    slots[g] = impl(sim)
-                elif code == two:
-                    x, y = slots[a], slots[b]
-                    slots[g] = invalid if x is invalid or y is invalid else impl(sim, x, y)
-                else:
-                    inputs, values = v
-                    args = [slots[j] for j in inputs]
-                    slots[g] = invalid if any(x is invalid for x in args) else impl(sim, *args, *values)
-            except (CounterfactualUnavailable, EvaluationError):
-                slots[g] = invalid
+        run_operations(ops, order, sim, slots, failure_is_invalid=True)
         return slots
-
-
-#: How a node is evaluated: (shape, implementation, first input, second input, side value / literal / other).
-_Operation = tuple[int, Any, int, int, Any]
-_LITERAL, _NONE, _ONE, _ONE_SIDE, _TWO, _OTHER = range(6)
 
 
 #: Per accepted node-list module name: (spec, number of inputs, how to reorder the inputs of an original name or
