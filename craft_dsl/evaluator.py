@@ -151,10 +151,7 @@ class Plan:
         if self.runs >= COMPILE_AFTER_RUNS:
             self._fast = self.compile()
             return self._fast(sim)
-        order = self.order if self.order is not None else self._prepare()
-        slots: list[Any] = [None] * len(self.nodes)
-        run_operations(self.ops, order, sim, slots)
-        return slots[self.root]
+        return self.values(sim)[self.root]
 
     def values(self, sim: Simulation) -> list[Any]:
         """The value of every node (None for nodes the answer does not need), in node order; nodes with an

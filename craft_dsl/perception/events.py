@@ -145,24 +145,14 @@ class GeometryProbe:
             shape.filter = flt
             yield shape
 
-    def place(self, positions: np.ndarray, angles: np.ndarray, columns: Mapping[int, int]) -> None:
-        """Move every dynamic body to row values ``positions`` [N, 2], ``angles`` [N] (``columns``: uid -> col)."""
+    def place(self, positions: np.ndarray, angles: np.ndarray, columns: Mapping[int, int],
+              uids: Sequence[int] | None = None) -> None:
+        """Move every dynamic body (or only the dynamic bodies ``uids``, the others staying where they were) to row
+        values ``positions`` [N, 2], ``angles`` [N] (``columns``: uid -> col)."""
         set_position, set_angle, reindex, space = (_lib.cpBodySetPosition, _lib.cpBodySetAngle,
                                                    _lib.cpSpaceReindexShapesForBody, self._space)
-        for uid, body in self._placed:
-            i = columns[uid]
-            set_position(body, (float(positions[i, 0]), float(positions[i, 1])))
-            set_angle(body, float(angles[i]))
-            reindex(space, body)
-
-    def place_bodies(self, uids: Sequence[int], positions: np.ndarray, angles: np.ndarray,
-                     columns: Mapping[int, int]) -> None:
-        """Move only the dynamic bodies ``uids`` to their row values (the others stay where they were): enough for
-        a question about those bodies alone."""
-        set_position, set_angle, reindex, space = (_lib.cpBodySetPosition, _lib.cpBodySetAngle,
-                                                   _lib.cpSpaceReindexShapesForBody, self._space)
-        for uid in uids:
-            body = self.bodies[uid]._body
+        placed = self._placed if uids is None else [(uid, self.bodies[uid]._body) for uid in uids]
+        for uid, body in placed:
             i = columns[uid]
             set_position(body, (float(positions[i, 0]), float(positions[i, 1])))
             set_angle(body, float(angles[i]))
@@ -301,7 +291,7 @@ class _PairGeometry:
         moved = [uid for uid in (a, b) if uid in self.probe.plain_shapes]  # only the pair's own contacts are kept
         found: set[PairKey] = set()
         for pos, ang in samples:
-            self.probe.place_bodies(moved, pos, ang, self.columns)
+            self.probe.place(pos, ang, self.columns, moved)
             found |= {key for key in self.probe.touching([mover]) if {key[0], key[2]} == {a, b}}
         return frozenset(found)
 
