@@ -200,10 +200,57 @@ def _one_edit(nodes: list[dict[str, Any]], rng: random.Random) -> list[dict[str,
     return out
 
 
+def test_node_list_keys_only_where_duplicates_pay(sims: list[Simulation], monkeypatch: pytest.MonkeyPatch) -> None:
+    """Equal node lists are keyed while the batch repeats them: a batch of distinct lists stops making keys after
+    its first block, and duplicates that begin later are still found by the blocks keyed again; the outcomes are
+    those of each program alone either way."""
+    import copy
+
+    from craft_dsl.oracle import batch as batch_module
+
+    rng = random.Random(5)
+    make_key = batch_module.node_list_key
+    seen: set[Any] = set()
+    distinct: list[Any] = []  # template node lists and edited copies of them, no two equal
+    for sim in sims[:2]:
+        for _t, _p, p, _a in first_instances(sim, include_dropped=True):
+            gold = p.to_nodes()
+            for nodes in [gold] + [_one_edit(gold, rng) for _ in range(7)]:
+                if make_key(nodes) not in seen:
+                    seen.add(make_key(nodes))
+                    distinct.append(nodes)
+    block, probe = batch_module.KEY_BLOCK, batch_module.KEY_PROBE
+    assert len(distinct) >= probe * block
+    keys: list[int] = []
+
+    def counting(nodes: list[Any]) -> Any:
+        keys.append(1)
+        return make_key(nodes)
+
+    monkeypatch.setattr(batch_module, "node_list_key", counting)
+    head = distinct[:4 * block]
+    assert_same(head, sims[0], "nodes")
+    assert len(keys) == block  # the first block found no duplicate: the next three (before a probe) make none
+    keys.clear()
+    repeated = [copy.deepcopy(n) for n in head[:block] for _ in range(8)]  # 8 equal copies each, after the head
+    read: list[int] = []
+    original = batch_module._Batch.read_node_lists_all
+
+    def reading(self: Any, lists: Sequence[Any]) -> list[int | None]:
+        read.append(len(lists))
+        return original(self, lists)
+
+    monkeypatch.setattr(batch_module._Batch, "read_node_lists_all", reading)
+    programs = distinct[:probe * block] + repeated
+    assert_same(programs, sims[0], "nodes")
+    # The head's blocks after the first are keyed again only at the probe; from there on every block repeats.
+    assert read[0] < len(programs) - len(repeated) // 2
+
+
 def test_duplicated_and_edited_node_lists_as_alone(sims: list[Simulation], monkeypatch: pytest.MonkeyPatch) -> None:
     """Every template node list 8 times over two simulations, 7 of the 8 with one edit, each program then
     repeated as the same list and as an equal copy: the outcomes are those of each program alone, and each
-    distinct list is read once however often the batch holds it."""
+    distinct list is read once (half the lists keyed find an equal one: keys pay all through)."""
     import copy
 
     from craft_dsl.oracle.batch import _Batch

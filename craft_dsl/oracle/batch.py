@@ -923,10 +923,21 @@ def _read_token_lists(batch: _Batch, programs: Sequence[Any], form: ProgramForm)
     return list(map(results.__getitem__, ids))
 
 
+#: Node lists are keyed (:func:`node_list_key`) in blocks of this many programs ...
+KEY_BLOCK = 64
+#: ... and the next block is keyed only where at least this share of the keys the last keyed block made found a
+#: list read before: a key costs about half of reading a list again, so keys pay only where lists often repeat.
+KEY_PAYS = 0.4
+#: Where keys did not pay, one block in this many is keyed again, to find duplicates that begin later.
+KEY_PROBE = 8
+
+
 def _read_node_lists(batch: _Batch, programs: Sequence[Any]) -> list[int] | None:
     """The reading of a batch of node lists (every program a list), in one pass without the per-program
-    bookkeeping of :func:`_read_each`. Each distinct list is read once (see :func:`node_list_key`); distinct
-    lists share the memo of checked nodes. None for any other batch."""
+    bookkeeping of :func:`_read_each`. The same list object is read once; equal lists (see
+    :func:`node_list_key`) are read once where the batch repeats them (keys are made while the duplicates found
+    pay for them: :data:`KEY_BLOCK`, :data:`KEY_PAYS`, :data:`KEY_PROBE`); distinct lists share the memo of
+    checked nodes. None for any other batch."""
     if not programs or set(map(type, programs)) != {list}:
         return None
     index: dict[Any, int] = {}  # key of a distinct list -> its number, in the order of the first programs
@@ -934,13 +945,26 @@ def _read_node_lists(batch: _Batch, programs: Sequence[Any]) -> list[int] | None
     distinct: list[Any] = []
     ids: list[int] = []
     append_id = ids.append
-    for p in programs:
-        j = by_id.get(id(p))
-        if j is None:
-            j = by_id[id(p)] = index.setdefault(node_list_key(p), len(index))
-            if j == len(distinct):
-                distinct.append(p)
-        append_id(j)
+    unpaid = 0  # blocks since the last keyed block whose duplicates did not pay for its keys (0: they did)
+    for start in range(0, len(programs), KEY_BLOCK):
+        block = programs[start:start + KEY_BLOCK]
+        keyed = unpaid % KEY_PROBE == 0
+        keys = repeats = 0
+        for p in block:
+            j = by_id.get(id(p))
+            if j is None:
+                if keyed:
+                    keys += 1
+                    j = index.setdefault(node_list_key(p), len(distinct))
+                    if j < len(distinct):
+                        repeats += 1
+                else:
+                    j = len(distinct)
+                by_id[id(p)] = j
+                if j == len(distinct):
+                    distinct.append(p)
+            append_id(j)
+        unpaid = 0 if keyed and repeats >= KEY_PAYS * keys else unpaid + 1
     answer_types = ANSWER_TYPES
     nodes = batch.nodes
     read: list[int] = []
