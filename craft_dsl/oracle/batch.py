@@ -7,8 +7,8 @@ The work the programs share is done once:
 
 * programs are read into one hash-consed node table for the whole batch (:class:`~craft_dsl.checker.ProgramBuilder`):
   a call is checked once per distinct (module token, argument) combination, however many programs contain it,
-  and a program written twice in the same form is read once (node lists: equal lists, by
-  :func:`node_list_key`);
+  and a program written twice in the same form is read once (node lists: the same list object, and equal lists
+  by :func:`node_list_key` while the batch repeats lists often enough for keys to pay);
 * every node the batch's programs need is evaluated once per simulation, so shared sub-programs
   (``SceneAtStart()``, ``FilterColor(..., "red")``, ``Events()`` and its filters) cost one evaluation per
   simulation; counterfactual event sets are computed once per (simulation, removed object) by the
