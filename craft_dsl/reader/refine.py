@@ -37,17 +37,18 @@ _STEP_RAD = 0.01
 
 def refine(frames: np.ndarray, background: np.ndarray, shape: str, size: str, color: int,
            which: Sequence[int], x: np.ndarray, y: np.ndarray, angle: np.ndarray, blur: float = 0.0,
-           starts: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+           starts: int = 1, clipped: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Centre (pixels) and angle of the body in frames ``which`` from a first guess; also the RMS residual per frame
     (grey levels), which is small when the guessed shape and size are right. Frames whose window leaves the
-    picture are returned unchanged with an infinite residual. ``blur``: Gaussian sigma (pixels) by which the
+    picture are returned unchanged with an infinite residual, or with ``clipped`` compared on their part inside the
+    picture (a body whose centre is in it). ``blur``: Gaussian sigma (pixels) by which the
     frames are softer than the renderer draws (a video rescaled from a smaller size): the drawing is blurred as
     much before it is compared. ``starts``: each frame is fitted from that many first angles spread evenly over a
     turn (the guessed one first), and the fit with the least residual is kept (see :data:`SOFT_ANGLE_STARTS`)."""
-    best = _refine_from(frames, background, shape, size, color, which, x, y, angle, blur)
+    best = _refine_from(frames, background, shape, size, color, which, x, y, angle, blur, clipped)
     for j in range(1, starts):
         turned = np.asarray(angle, dtype=np.float64) + 2.0 * math.pi * j / starts
-        other = _refine_from(frames, background, shape, size, color, which, x, y, turned, blur)
+        other = _refine_from(frames, background, shape, size, color, which, x, y, turned, blur, clipped)
         better = other[3] < best[3]
         for mine, theirs in zip(best, other):
             mine[better] = theirs[better]
@@ -55,8 +56,8 @@ def refine(frames: np.ndarray, background: np.ndarray, shape: str, size: str, co
 
 
 def _refine_from(frames: np.ndarray, background: np.ndarray, shape: str, size: str, color: int,
-                 which: Sequence[int], x: np.ndarray, y: np.ndarray, angle: np.ndarray, blur: float
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+                 which: Sequence[int], x: np.ndarray, y: np.ndarray, angle: np.ndarray, blur: float,
+                 clipped: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`refine` from one first guess."""
     n_frames, h, w_img = frames.shape[:3]
     geometry = dynamic_geometry(shape, size)
@@ -69,13 +70,18 @@ def _refine_from(frames: np.ndarray, background: np.ndarray, shape: str, size: s
     a = np.asarray(angle, dtype=np.float64).copy()
     x0 = np.floor(x - win / 2).astype(np.int64)
     y0 = np.floor(y - win / 2).astype(np.int64)
-    inside = (x0 >= 0) & (y0 >= 0) & (x0 + win <= w_img) & (y0 + win <= h)
+    if clipped:
+        inside = (x >= 0) & (y >= 0) & (x < w_img) & (y < h)
+    else:
+        inside = (x0 >= 0) & (y0 >= 0) & (x0 + win <= w_img) & (y0 + win <= h)
     rms = np.full(idx.size, np.inf)
     if not inside.any():
         return x, y, a, rms
     k = np.nonzero(inside)[0]
     rows = y0[k, None] + np.arange(win)[None, :]
     cols = x0[k, None] + np.arange(win)[None, :]
+    in_picture = ((rows >= 0) & (rows < h))[:, :, None] & ((cols >= 0) & (cols < w_img))[:, None, :]
+    rows, cols = np.clip(rows, 0, h - 1), np.clip(cols, 0, w_img - 1)
     observed = frames[idx[k][:, None, None], rows[:, :, None], cols[:, None, :]].astype(np.float32)
     bg = background[rows[:, :, None], cols[:, None, :]].astype(np.float32)
     labels = lookup(observed.astype(np.uint8), soft=blur > 0)  # softer frames: their colours read softly too
@@ -83,7 +89,7 @@ def _refine_from(frames: np.ndarray, background: np.ndarray, shape: str, size: s
     # other bodies' colours do not count, except on the body itself (a small dark body partly reads as gray)
     footprint, _ = shade_body(geometry, name, x[k], y[k], a[k], x0[k], y0[k], win, w_img)
     footprint = ndi.binary_dilation(footprint > 0, structure=_DILATE, iterations=2)
-    weight = ~((labels >= 0) & (labels < WHITE) & (labels != color) & ~footprint)
+    weight = ~((labels >= 0) & (labels < WHITE) & (labels != color) & ~footprint) & in_picture
     weight3 = weight[..., None].astype(np.float32)
 
     def draw(cx: np.ndarray, cy: np.ndarray, ang: np.ndarray) -> np.ndarray:

@@ -777,13 +777,14 @@ def shape_residuals(obj: TrackedObject, frames: np.ndarray, background: np.ndarr
                     which: Sequence[int]) -> np.ndarray:
     """Render-and-compare residuals (grey levels) of ``obj`` drawn as (shape, size) in those of the frames ``which``
     where it was measured complete (the same frames for every shape): the wrong shape leaves its corners or its
-    missing corners in the residual. Infinite where that drawing could not be fitted (its window leaves the
-    picture)."""
+    missing corners in the residual. A drawing whose window leaves the picture is compared on its part inside it
+    (a small circle at rest on the ground fits a square's wider window only so: compared on the frames where all
+    windows fit, its first frames alone once decided it a cube); infinite only where the body's centre is outside."""
     done = [k for k in which if k in obj.measurements and obj.measurements[k].complete]
     if not done:
         return np.zeros(0)
     return refine(frames, background, shape, size, obj.color, done, *_measured_poses(obj, done, shape, size),
-                  blur=source_blur(obj.source_size))[3]
+                  blur=source_blur(obj.source_size), clipped=True)[3]
 
 
 def _quantile(residuals: np.ndarray, quantile: float) -> float:
@@ -796,7 +797,7 @@ def _quantile(residuals: np.ndarray, quantile: float) -> float:
 def compared_residuals(per_frame: Mapping[tuple[str, str], np.ndarray], quantile: float = 0.5
                        ) -> dict[tuple[str, str], float]:
     """Each candidate's residual (the ``quantile`` of its per-frame residuals), taken over the frames where every
-    candidate that could be fitted anywhere was fitted: a larger drawing's window leaves the picture in more frames,
+    candidate that could be fitted anywhere was fitted (a frame where a body's centre is out of the picture is not),
     and a median over other frames compares other moments (a body cut by compression in some of them). Where no frame
     holds them all, each over its own."""
     fitted = {key for key, v in per_frame.items() if np.any(np.isfinite(v))}
