@@ -216,8 +216,9 @@ def test_node_list_keys_only_where_duplicates_pay(sims: list[Simulation], monkey
         for _t, _p, p, _a in first_instances(sim, include_dropped=True):
             gold = p.to_nodes()
             for nodes in [gold] + [_one_edit(gold, rng) for _ in range(7)]:
-                if make_key(nodes) not in seen:
-                    seen.add(make_key(nodes))
+                key = make_key(nodes)
+                if key not in seen:
+                    seen.add(key)
                     distinct.append(nodes)
     block, probe = batch_module.KEY_BLOCK, batch_module.KEY_PROBE
     assert len(distinct) >= probe * block

@@ -8,17 +8,16 @@ import math
 
 import numpy as np
 
-from craft_dsl.reader.refine import refine
+from craft_dsl.reader.refine import refine, window_px
 from craft_dsl.render.raster import shade_body
 from craft_dsl.vocabulary import COLORS
-from craft_dsl.world import bounding_radius, dynamic_geometry
+from craft_dsl.world import dynamic_geometry
 
 SIZE = 256
-PPM = SIZE / 50.0
 
 
 def _window(shape: str) -> int:
-    return int(math.ceil(2 * bounding_radius(dynamic_geometry(shape, "small")) * PPM)) + 6
+    return window_px(shape, "small", SIZE)
 
 
 def _frame_with(shape: str, color: str, cx: float, cy: float, angle: float) -> np.ndarray:

@@ -35,6 +35,12 @@ _DILATE[1] = True
 _STEP_RAD = 0.01
 
 
+def window_px(shape: str, size: str, width: int) -> int:
+    """Side (pixels) of the square window a body of (shape, size) is drawn and compared in, in frames ``width``
+    pixels wide: its bounding circle and a margin of 3 pixels a side."""
+    return int(math.ceil(2 * bounding_radius(dynamic_geometry(shape, size)) * (width / 50.0))) + 6
+
+
 def refine(frames: np.ndarray, background: np.ndarray, shape: str, size: str, color: int,
            which: Sequence[int], x: np.ndarray, y: np.ndarray, angle: np.ndarray, blur: float = 0.0,
            starts: int = 1, clipped: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -61,9 +67,7 @@ def _refine_from(frames: np.ndarray, background: np.ndarray, shape: str, size: s
     """:func:`refine` from one first guess."""
     n_frames, h, w_img = frames.shape[:3]
     geometry = dynamic_geometry(shape, size)
-    extent = bounding_radius(geometry)
-    ppm = w_img / 50.0
-    win = int(math.ceil(2 * extent * ppm)) + 6
+    win = window_px(shape, size, w_img)
     idx = np.asarray(list(which), dtype=np.int64)
     x = np.asarray(x, dtype=np.float64).copy()
     y = np.asarray(y, dtype=np.float64).copy()
@@ -80,8 +84,10 @@ def _refine_from(frames: np.ndarray, background: np.ndarray, shape: str, size: s
     k = np.nonzero(inside)[0]
     rows = y0[k, None] + np.arange(win)[None, :]
     cols = x0[k, None] + np.arange(win)[None, :]
-    in_picture = ((rows >= 0) & (rows < h))[:, :, None] & ((cols >= 0) & (cols < w_img))[:, None, :]
-    rows, cols = np.clip(rows, 0, h - 1), np.clip(cols, 0, w_img - 1)
+    in_picture = None  # unclipped, every window lies in the picture
+    if clipped:
+        in_picture = ((rows >= 0) & (rows < h))[:, :, None] & ((cols >= 0) & (cols < w_img))[:, None, :]
+        rows, cols = np.clip(rows, 0, h - 1), np.clip(cols, 0, w_img - 1)
     observed = frames[idx[k][:, None, None], rows[:, :, None], cols[:, None, :]].astype(np.float32)
     bg = background[rows[:, :, None], cols[:, None, :]].astype(np.float32)
     labels = lookup(observed.astype(np.uint8), soft=blur > 0)  # softer frames: their colours read softly too
@@ -89,7 +95,9 @@ def _refine_from(frames: np.ndarray, background: np.ndarray, shape: str, size: s
     # other bodies' colours do not count, except on the body itself (a small dark body partly reads as gray)
     footprint, _ = shade_body(geometry, name, x[k], y[k], a[k], x0[k], y0[k], win, w_img)
     footprint = ndi.binary_dilation(footprint > 0, structure=_DILATE, iterations=2)
-    weight = ~((labels >= 0) & (labels < WHITE) & (labels != color) & ~footprint) & in_picture
+    weight = ~((labels >= 0) & (labels < WHITE) & (labels != color) & ~footprint)
+    if in_picture is not None:
+        weight &= in_picture  # pixels outside the picture weigh nothing
     weight3 = weight[..., None].astype(np.float32)
 
     def draw(cx: np.ndarray, cy: np.ndarray, ang: np.ndarray) -> np.ndarray:
