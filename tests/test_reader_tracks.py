@@ -15,8 +15,10 @@ from craft_dsl.reader.track import (
     count_per_color,
     drop_riding,
     drop_strays,
+    measure_frames,
     pair_twins,
     purity,
+    refine_frames,
     relink_merges,
     riding_frames,
     riding_share,
@@ -332,3 +334,34 @@ def test_two_bodies_of_one_colour_at_rest_together_are_not_measured_as_one() -> 
     assert paired.best() == ("circle", "large")
     resting = [k for k, m in paired.measurements.items() if k >= 25]
     assert resting and not any(paired.measurements[k].complete for k in resting)
+
+
+def test_a_frame_is_fitted_once_per_shape_however_often_its_pose_is_asked_for(
+        passing_bodies: tuple[np.ndarray, np.ndarray, list[TrackedObject]], monkeypatch: pytest.MonkeyPatch) -> None:
+    """Render and compare fits each frame once per (shape, size): asking again for a shape tried before, or for a
+    frame whose fit failed, gives what the first fit gave without fitting again."""
+    import craft_dsl.reader.track as track_module
+
+    frames, background, tracked = passing_bodies
+    circle = _copies([min(tracked, key=lambda o: o.seen()[0] if o.seen() else 0)])[0]
+    which = circle.seen_whole()[:6]
+    measure_frames(circle, frames, background, which)
+    fitted_frames: list[int] = []
+    real_refine = track_module.refine
+
+    def counting_refine(*args: object, **kwargs: object) -> object:
+        fitted_frames.extend(args[5])  # type: ignore[call-overload]
+        return real_refine(*args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(track_module, "refine", counting_refine)
+    refine_frames(circle, frames, background, which, "circle", "large")
+    first = dict(circle.poses)
+    assert first and len(fitted_frames) == len(set(which) & set(circle.measurements))
+    refine_frames(circle, frames, background, which, "cube", "large")  # another shape: its own fits
+    assert circle.pose_shape == ("cube", "large")
+    asked = len(fitted_frames)
+    refine_frames(circle, frames, background, which, "circle", "large")  # back to the first: nothing fitted again
+    refine_frames(circle, frames, background, which, "cube", "large")
+    assert len(fitted_frames) == asked
+    refine_frames(circle, frames, background, which, "circle", "large")
+    assert circle.poses == first

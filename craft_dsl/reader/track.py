@@ -148,6 +148,10 @@ class TrackedObject:
     measurements: dict[int, Measurement] = field(default_factory=dict)  # full-resolution, by frame
     poses: dict[int, tuple[float, float, float]] = field(default_factory=dict)  # render-and-compare (x, y, angle)
     pose_shape: tuple[str, str] | None = None  # the (shape, size) the poses were fitted as
+    #: Every render-and-compare fit made, by (shape, size) and frame (None: it failed): a frame's fit depends on that
+    #: frame alone, so a shape tried again, or a frame whose fit failed, is not fitted twice.
+    fitted: dict[tuple[str, str], dict[int, tuple[float, float, float] | None]] = field(
+        default_factory=dict, repr=False, compare=False)
     source_size: int | None = None  # the video's frame size before it was rescaled to DEFAULT_SIZE (None: not rescaled)
     #: The other tracks of its colour (:func:`pair_twins`): a piece that reaches one of their blobs covers both.
     twins: list[TrackedObject] = field(default_factory=list, repr=False, compare=False)
@@ -738,21 +742,28 @@ def _measured_poses(obj: TrackedObject, which: Sequence[int], shape: str, size: 
 def refine_frames(obj: TrackedObject, frames: np.ndarray, background: np.ndarray, which: Sequence[int],
                   shape: str, size: str) -> None:
     """Exact poses (render and compare, :mod:`craft_dsl.reader.refine`) of ``obj`` in the frames ``which`` where it
-    was measured complete, as the body (shape, size); cached on it (until the shape changes)."""
+    was measured complete, as the body (shape, size); held on it as its poses (until the shape changes), and each
+    fit made only once (:attr:`TrackedObject.fitted`)."""
     if obj.pose_shape != (shape, size):
         obj.poses.clear()
         obj.pose_shape = (shape, size)
     todo = [k for k in which if k not in obj.poses and k in obj.measurements and obj.measurements[k].complete]
     if not todo:
         return
-    # a soft video's small circles and cubes: their blurred eyes, all that fixes their angle, mislead one start
-    starts = SOFT_ANGLE_STARTS if soft_source(obj.source_size) and size == "small" and shape != "triangle" else 1
-    x, y, fitted, rms = refine(frames, background, shape, size, obj.color, todo,
-                               *_measured_poses(obj, todo, shape, size), blur=source_blur(obj.source_size),
-                               starts=starts)
-    for i, k in enumerate(todo):
-        if np.isfinite(rms[i]) and rms[i] < MAX_REFINE_RMS:
-            obj.poses[k] = (float(x[i]), float(y[i]), float(fitted[i]))
+    made = obj.fitted.setdefault((shape, size), {})
+    fresh = list(dict.fromkeys(k for k in todo if k not in made))
+    if fresh:
+        # a soft video's small circles and cubes: their blurred eyes, all that fixes their angle, mislead one start
+        starts = SOFT_ANGLE_STARTS if soft_source(obj.source_size) and size == "small" and shape != "triangle" else 1
+        x, y, angle, rms = refine(frames, background, shape, size, obj.color, fresh,
+                                  *_measured_poses(obj, fresh, shape, size), blur=source_blur(obj.source_size),
+                                  starts=starts)
+        for i, k in enumerate(fresh):
+            ok = np.isfinite(rms[i]) and rms[i] < MAX_REFINE_RMS
+            made[k] = (float(x[i]), float(y[i]), float(angle[i])) if ok else None
+    for k in todo:
+        if (pose := made[k]) is not None:
+            obj.poses[k] = pose
 
 
 #: The shape check's frames: this many spread over the run where the body is seen whole (more where the frames are
