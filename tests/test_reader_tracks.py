@@ -3,6 +3,8 @@ that each is one shape."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 
@@ -349,9 +351,9 @@ def test_a_frame_is_fitted_once_per_shape_however_often_its_pose_is_asked_for(
     fitted_frames: list[int] = []
     real_refine = track_module.refine
 
-    def counting_refine(*args: object, **kwargs: object) -> object:
-        fitted_frames.extend(args[5])  # type: ignore[call-overload]
-        return real_refine(*args, **kwargs)  # type: ignore[arg-type]
+    def counting_refine(*args: Any, **kwargs: Any) -> Any:
+        fitted_frames.extend(args[5])
+        return real_refine(*args, **kwargs)
 
     monkeypatch.setattr(track_module, "refine", counting_refine)
     refine_frames(circle, frames, background, which, "circle", "large")
