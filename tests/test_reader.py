@@ -180,6 +180,27 @@ def test_a_smear_of_a_large_body_s_colour_along_a_static_does_not_set_its_radius
     assert m.radius / math.sqrt(m.area) < 0.63  # nearer a circle's 0.55 than a cube's 0.71
 
 
+def test_gray_specks_of_another_body_are_not_a_gray_body_s() -> None:
+    # a large gray circle resting on a small blue cube whose outline and eye rims read gray in places (its blue
+    # mixed with black or white): the gray mask's closing must not join them to the circle
+    background = np.full((48, 48, 3), 255, dtype=np.uint8)
+    rows, cols = np.mgrid[0:48, 0:48] + 0.5
+    gray, blue = COLORS.index("gray"), COLORS.index("blue")
+    circle = (cols - 24.0) ** 2 + (rows - 18.5) ** 2 <= 10.3 ** 2
+    alone = background.copy()
+    alone[circle] = PALETTE[gray]
+    touched = alone.copy()
+    touched[30:42, 16:30] = PALETTE[blue]  # the cube, its top row touching the circle's bottom
+    touched[29, 16:30] = PALETTE[gray]  # its outline, gray where blue met black
+    touched[33:35, 19:21] = PALETTE[gray]  # an eye rim's specks inside it
+    touched[33:35, 25:27] = PALETTE[gray]
+    clean = measure(alone, background, gray, (0, 0), seed=(18, 24))
+    m = measure(touched, background, gray, (0, 0), seed=(18, 24))
+    assert clean is not None and m is not None
+    assert abs(m.area - clean.area) < 0.05 * clean.area  # joined to it, the specks made it 20% larger
+    assert m.radius / math.sqrt(m.area) < 0.63  # a circle's 0.55, not a cube's 0.71
+
+
 def test_another_body_touching_is_still_another_body() -> None:
     # a small brown cube resting against the large red cube's right side (half-width 2 m + 1 m)
     window, background, origin, _centre = _red_body_window(
