@@ -245,6 +245,44 @@ def _slot_starts(model: LayoutModel, values: Mapping[str, float]) -> list[tuple[
 #: inside another body's slot, and took that slot from the body seen there from the first frame.
 HIDDEN_SPEED = 20.0
 HIDDEN_SHARE = 0.1
+#: A body first seen by this step counts as seen from the start (its position compared in x and y): a small cube in
+#: a stack of touching cubes (scene 2) is often first read a frame or three late, and by x alone it took the slot of
+#: the cube below it.
+SEEN_AT_START_STEPS = 4
+#: The first position of a body is read off a line through its sightings of its first FIRST_SPAN_STEPS steps (at
+#: most FIRST_SIGHTINGS of them, at least FIRST_MIN_SIGHTINGS), a median line (Theil-Sen) that one stray sighting does
+#: not move: in the first frame of a stack of cubes, specks of the others' outlines join a gray cube's piece and put
+#: its centroid 8 px above the cube (in the row of the slots above it).
+FIRST_SPAN_STEPS = 12
+FIRST_SIGHTINGS = 8
+FIRST_MIN_SIGHTINGS = 4
+#: The least probability a slot's allowed readings count with in the assignment (a cost of -3 ln of it): the shape
+#: features of a cube in a stack of touching cubes can read another shape with probability 1.0, and at a floor of
+#: 1e-6 (41 m of distance) a stack's cube read as a circle took a circle's slot 15 m away.
+ALLOWED_FLOOR = 1e-3
+
+
+def first_sighting(obj: TrackedObject, rows: np.ndarray, step: int | None = None) -> tuple[float, float] | None:
+    """Where ``obj`` is (pixels) at its first sighting, or at ``step`` where given, on a median line (Theil-Sen, per
+    axis) through its sightings of the :data:`FIRST_SPAN_STEPS` steps from its first (``rows``: the step each frame
+    shows); its first blob's centroid where fewer than :data:`FIRST_MIN_SIGHTINGS` lie there. None: never seen."""
+    seen = obj.seen()
+    if not seen:
+        return None
+    first = seen[0]
+    near = [k for k in seen[:FIRST_SIGHTINGS] if int(rows[k]) - int(rows[first]) <= FIRST_SPAN_STEPS]
+    blob = obj.blobs[first]
+    assert blob is not None
+    if len(near) < FIRST_MIN_SIGHTINGS:
+        return blob.x, blob.y
+    t = np.array([float(rows[k]) for k in near])
+    xy = np.array([(b.x, b.y) for b in (obj.blobs[k] for k in near) if b is not None])
+    i, j = np.triu_indices(len(near), 1)
+    at = float(rows[first]) if step is None else float(step)
+    slopes = (xy[j] - xy[i]) / (t[j] - t[i])[:, None]
+    slope = np.median(slopes, axis=0)
+    line = np.median(xy - slope * (t - at)[:, None], axis=0)
+    return float(line[0]), float(line[1])
 
 
 def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Sequence[TrackedObject],
@@ -252,27 +290,35 @@ def assign_slots(model: LayoutModel, values: Mapping[str, float], objects: Seque
     """The slot of each object (see the module docstring); objects beyond the slots get -1. ``rows``: the step
     each frame shows (default ``k + 1``). A body first seen after the first frame, from a slot that starts above
     the picture, is compared with where that slot's body has fallen to by then (the slots' heights order the
-    entries); one hidden at first, by its x alone."""
+    entries); one hidden at first, by its x alone (one first seen by step :data:`SEEN_AT_START_STEPS` counts as seen
+    from the start, its position carried back to the first frame's step). Positions are read robustly
+    (:func:`first_sighting`)."""
     starts = _slot_starts(model, values)
+    shown = _frame_rows(rows, max((len(obj.blobs) for obj in objects), default=0))
     cost = np.zeros((len(objects), len(starts)))
     for i, obj in enumerate(objects):
         seen = obj.seen()
         first = seen[0] if seen else 0
-        b = obj.blobs[first]
-        pos = np.array(to_metres(b.x, b.y, 256), dtype=float) if b is not None else np.array([0.0, 60.0])
-        t = (int(rows[first]) if rows is not None else first + 1) / SIM_FPS  # seconds until its first sighting
+        at_start = first == 0 or int(shown[first]) <= SEEN_AT_START_STEPS
+        sighting = first_sighting(obj, shown)
+        pos = np.array(to_metres(*sighting, 256), dtype=float) if sighting is not None else np.array([0.0, 60.0])
+        if at_start and first > 0:  # carried back to the first frame's step
+            sighting = first_sighting(obj, shown, int(shown[0]))
+            assert sighting is not None
+        start_pos = np.array(to_metres(*sighting, 256), dtype=float) if sighting is not None else pos
+        t = int(shown[first]) / SIM_FPS  # seconds until its first sighting
         for s, (lo, hi, vy) in enumerate(starts):
             if first > 0 and lo[1] > Y_MAX:  # fell in from above the picture: fallen from its start since
                 fall = np.array([0.0, vy * t + 0.5 * GRAVITY[1] * t * t])
                 gap = np.maximum(np.maximum(lo + fall - pos, 0.0), pos - hi - fall)
-            elif first > 0:  # hidden at first: only x is comparable, less so the longer it was hidden
+            elif not at_start:  # hidden at first: only x is comparable, less so the longer it was hidden
                 off = max(lo[0] - pos[0], 0.0, pos[0] - hi[0])
                 gap = np.array([max(off - HIDDEN_SPEED * t, HIDDEN_SHARE * off), 0.0])
             else:
-                gap = np.maximum(np.maximum(lo - pos, 0.0), pos - hi)
+                gap = np.maximum(np.maximum(lo - start_pos, 0.0), start_pos - hi)
             allowed = sum(p for (shape, size), p in obj.shape_size.items()
                           if model.slot_allows(s, (shape, obj.color_name, size)))
-            cost[i, s] = float(np.hypot(*gap)) - 3.0 * math.log(max(allowed, 1e-6))
+            cost[i, s] = float(np.hypot(*gap)) - 3.0 * math.log(max(allowed, ALLOWED_FLOOR))
     chosen, cols = linear_sum_assignment(cost)
     out = [-1] * len(objects)
     for r, c in zip(chosen, cols):
