@@ -21,7 +21,7 @@ import pytest
 
 from craft_dsl.dataset import pipeline as P
 from craft_dsl.dataset.merge import WORK_FOLDER
-from tests.foreground import restore_ctrl_c
+from tests.foreground import popen_foreground
 
 CONFIG = {"size": 6, "seed": 3, "scenes": (1, 2, 3), "steps": 200, "perturbations": 1}
 ARGS = ["--size", "6", "--seed", "3", "--scenes", "1-3", "--steps", "200", "--perturbations", "1"]
@@ -44,8 +44,7 @@ def _start(out: Path, workers: int, *extra: str) -> subprocess.Popen[str]:
     """``craft-dsl generate`` in a new process group (as a shell runs a foreground command)."""
     cmd = [sys.executable, "-m", "craft_dsl", "generate", *ARGS, *extra, "--out", str(out), "--workers", str(workers),
            "--quiet"]
-    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-                            preexec_fn=restore_ctrl_c)
+    return popen_foreground(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
 
 
 def _children(pid: int) -> list[int]:

@@ -10,8 +10,11 @@ from __future__ import annotations
 import json
 import math
 import os
+import signal
 import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -121,6 +124,70 @@ def test_a_binary_that_is_not_executable_is_refused(tmp_path: Path, monkeypatch:
     monkeypatch.setenv(orig.ENV_BINARY, str(path))
     assert main(["engines", "original", "--check"]) == 2
     assert f"${orig.ENV_BINARY} is '{path}', which is not an executable file" in capsys.readouterr().err
+
+
+class _MarksWhereItDies:
+    """Appends the id of the process that frees it to ``path``."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __del__(self) -> None:
+        with self.path.open("a") as out:
+            out.write(f"{os.getpid()}\n")
+
+
+def test_no_python_runs_in_the_child_between_fork_and_exec(tmp_path: Path) -> None:
+    """Python code between fork and exec frees the other threads' thread-local objects in the child; a library's
+    object there (PyAV's scaler) then waits forever on a lock its thread held: the sampler's parallel runs hung."""
+    marks = tmp_path / "freed_in"
+    ready, release = threading.Event(), threading.Event()
+    local = threading.local()
+
+    def hold() -> None:
+        local.obj = _MarksWhereItDies(marks)
+        ready.set()
+        release.wait(60)
+
+    holder = threading.Thread(target=hold)
+    holder.start()
+    ready.wait(60)
+    try:
+        with pytest.raises(OriginalSimulatorError, match="wrote no output file"):
+            orig.run_binary(stand_in(tmp_path, "exit 0"), tmp_path / "controller.json", tmp_path, dict(os.environ),
+                            30, "a stand-in", tmp_path / "out.json")
+    finally:
+        release.set()
+        holder.join(60)
+    freed_in = marks.read_text().split() if marks.exists() else []
+    assert freed_in == [str(os.getpid())], "a thread's local object was freed in a child process"
+
+
+@pytest.mark.skipif(orig._setpriv() is None, reason="needs util-linux's setpriv with --pdeathsig (Linux)")
+def test_a_simulator_ends_with_the_process_that_started_it(tmp_path: Path) -> None:
+    pid_file = tmp_path / "pid"
+    binary = stand_in(tmp_path, f"echo $$ > {pid_file}; exec sleep 60")
+    script = (f"from pathlib import Path; from craft_dsl.physics import original as o; "
+              f"o.run_binary(Path({str(binary)!r}), Path('c.json'), Path({str(tmp_path)!r}), {{}}, 60, 'x', "
+              f"Path('o.json'))")
+    parent = subprocess.Popen([sys.executable, "-c", script])
+    try:
+        for _ in range(600):
+            if pid_file.exists() and pid_file.read_text().strip():
+                break
+            time.sleep(0.05)
+        child = int(pid_file.read_text())
+    finally:
+        parent.kill()
+        parent.wait()
+    for _ in range(200):
+        try:
+            os.kill(child, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.05)
+    os.kill(child, signal.SIGKILL)
+    pytest.fail("the simulator outlived the process that started it")
 
 
 def test_the_video_option_belongs_to_the_original(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -29,7 +29,7 @@ from craft_dsl.reader import reconstruct
 from craft_dsl.reader.answer import VIDEO_SUFFIXES, Answer, Question, find_videos
 from craft_dsl.reader.runs import Journal, ctrl_c_outside_callbacks, journal_path, run_tasks
 from craft_dsl.reader.video import decode
-from tests.foreground import restore_ctrl_c
+from tests.foreground import popen_foreground
 from tests.reader_helpers import strip_dataset
 
 VIDEOS = (0, 2, 4)  # one video of each of the users dataset's scenes
@@ -244,8 +244,8 @@ def test_a_run_stopped_by_ctrl_c_resumes_to_the_same_bytes(stripped: Path, refer
     out = tmp_path / "run"
     journal = journal_path(out / "preds.json")
     command = _read_command(stripped, out, 2)
-    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True, preexec_fn=restore_ctrl_c)
+    proc = popen_foreground(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             start_new_session=True)
     deadline = time.monotonic() + 120
     while _records(journal) < 1 and proc.poll() is None and time.monotonic() < deadline:
         time.sleep(0.02)

@@ -18,7 +18,7 @@ import pytest
 
 from craft_dsl.program import Program, format_value
 from craft_dsl.viewer import Viewer, ViewerData, ViewerError
-from tests.foreground import restore_ctrl_c
+from tests.foreground import popen_foreground
 
 
 @pytest.fixture(scope="module")
@@ -205,8 +205,8 @@ def test_http_media_and_ranges(server: Viewer, data: ViewerData) -> None:
 
 
 def test_view_command_in_a_subprocess(users_dataset: Path) -> None:
-    proc = subprocess.Popen([sys.executable, "-m", "craft_dsl.cli", "view", str(users_dataset), "--port", "0"],
-                            stderr=subprocess.PIPE, text=True, preexec_fn=restore_ctrl_c)
+    proc = popen_foreground([sys.executable, "-m", "craft_dsl.cli", "view", str(users_dataset), "--port", "0"],
+                            stderr=subprocess.PIPE, text=True)
     try:
         assert proc.stderr is not None
         line = proc.stderr.readline()

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import functools
 import hashlib
 import json
 import math
@@ -139,14 +140,31 @@ def find_binary() -> Path:
         f"../shared/original-craft/craft-box2d-85c50b2.tar.gz), or set ${ENV_BINARY}")
 
 
-def _die_with_parent() -> None:  # pragma: no cover - runs in the child between fork and exec
-    """Ask Linux to end this child when the process that started it dies (no Xvfb or simulator outlives a killed
-    craft_dsl process); elsewhere a no-op."""
-    if sys.platform.startswith("linux"):
-        import ctypes
+def _with_parent(argv: Sequence[str]) -> list[str]:
+    """``argv`` started so that Linux ends it when the thread that started it dies (no Xvfb or simulator outlives a
+    killed craft_dsl process): through util-linux's ``setpriv --pdeathsig TERM`` where it is installed, else as is.
 
-        pr_set_pdeathsig = 1
-        ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGTERM)
+    The death signal is set by a program exec'd before the command, not by a ``preexec_fn``: Python code between
+    fork and exec, in a process with other threads, frees those threads' thread-local objects in the child, and a
+    library's object there (a PyAV scaler) waits forever on a lock its thread held at the fork."""
+    setpriv = _setpriv()
+    return [setpriv, "--pdeathsig", "TERM", "--", *argv] if setpriv else list(argv)
+
+
+@functools.cache
+def _setpriv() -> str | None:
+    """util-linux's setpriv, where it has ``--pdeathsig`` (Linux only)."""
+    if not sys.platform.startswith("linux"):
+        return None
+    found = shutil.which("setpriv")
+    if found is None:
+        return None
+    try:
+        done = subprocess.run([found, "--pdeathsig", "TERM", "--", "true"], stdin=subprocess.DEVNULL,
+                              capture_output=True, timeout=10, check=False)
+    except (OSError, subprocess.TimeoutExpired):
+        return None
+    return found if done.returncode == 0 else None
 
 
 def _kill_group(proc: subprocess.Popen[bytes]) -> None:
@@ -186,9 +204,10 @@ class _Display:
         read_fd, write_fd = os.pipe()
         try:
             proc = subprocess.Popen(
-                [xvfb, "-displayfd", str(write_fd), "-screen", "0", "1024x768x24", "-nolisten", "tcp", "-noreset"],
+                _with_parent([xvfb, "-displayfd", str(write_fd), "-screen", "0", "1024x768x24", "-nolisten", "tcp",
+                              "-noreset"]),
                 pass_fds=(write_fd,), stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                stderr=subprocess.DEVNULL, start_new_session=True, preexec_fn=_die_with_parent)
+                stderr=subprocess.DEVNULL, start_new_session=True)
         finally:
             os.close(write_fd)
         with os.fdopen(read_fd, "rb") as reader:
@@ -311,9 +330,9 @@ def run_binary(binary: Path, controller: Path, workdir: Path, env: dict[str, str
     JSON object it wrote to ``out_json``. Not starting, running past ``timeout`` seconds, a non-zero exit and a
     missing or malformed output are each an :class:`OriginalSimulatorError` naming ``label``."""
     try:
-        proc = subprocess.Popen([str(binary), str(controller)], cwd=workdir, env=env, stdin=subprocess.DEVNULL,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, start_new_session=True,
-                                preexec_fn=_die_with_parent)
+        proc = subprocess.Popen(_with_parent([str(binary), str(controller)]), cwd=workdir, env=env,
+                                stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                start_new_session=True)
     except OSError as err:
         raise OriginalSimulatorError(f"could not start the original simulator {binary}: {err}") from None
     try:
