@@ -3,16 +3,26 @@ bodies falling in from above the picture enter it."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from craft_dsl.reader.detect import WHITE, Blob, chroma, lookup
-from craft_dsl.reader.layout import ALIASED_EDGE_SHARE, STATIC_CHROMA, edge_share, fit_layout, observation
+from craft_dsl.reader.layout import (
+    ALIASED_EDGE_SHARE,
+    ALIASED_OFFSET_M,
+    STATIC_CHROMA,
+    edge_share,
+    fit_layout,
+    observation,
+)
 from craft_dsl.reader.layout_model import layout_model
 from craft_dsl.reader.reconstruct import assign_slots, first_sighting, first_window
 from craft_dsl.reader.track import TrackedObject
 from craft_dsl.render.raster import static_layer, world_to_pixel
 from craft_dsl.scenes import sample_world
+from craft_dsl.world import WorldSpec
 
 
 def _background(aliased: bool) -> np.ndarray:
@@ -166,3 +176,63 @@ def test_the_first_sighting_is_read_on_a_line_that_one_stray_sighting_does_not_m
     few = TrackedObject(0, [Blob(0, 0, 60.0, 7.0, 8.0, False)] + [None] * 59, {})
     assert first_sighting(few, rows) == (7.0, 8.0)
     assert first_sighting(TrackedObject(0, [None] * 60, {}), rows) is None
+
+
+# -- the original renderer's offset -------------------------------------------------------------------------------
+
+_OFFSET = (0.023, -0.072)
+
+
+def _translated(world: WorldSpec, d: tuple[float, float]) -> WorldSpec:
+    return replace(world, bodies=tuple(replace(b, position=(b.position[0] + d[0], b.position[1] + d[1]))
+                                       for b in world.bodies))
+
+
+# scene -> the draws that are places along an axis (a picture drawn with an offset shows them moved by it)
+_PLACE_DRAWS = {
+    2: {"basket.position[0]": 0, "static[4].position[1]": 1, "static[5].position[1]": 1,
+        "dynamic[7].position[1]": 1, "dynamic[8].position[0]": 0},
+    4: {"variables.h1": 1, "variables.h2": 1, "variables.h3": 1, "variables.h4": 1, "dynamic[0].position[0]": 0,
+        "dynamic[1].position[0]": 0, "dynamic[2].position[0]": 0},
+    18: {"basket.position[0]": 0, "static[0].position[0]": 0, "static[0].position[1]": 1, "static[1].position[0]": 0,
+         "static[1].position[1]": 1, "static[2].position[1]": 1, "dynamic[0].position[0]": 0,
+         "dynamic[1].position[0]": 0, "dynamic[3].position[1]": 1},
+}
+
+
+@pytest.mark.parametrize("scene", sorted(_PLACE_DRAWS))
+def test_a_world_drawn_with_an_offset_reads_as_the_same_world_moved(scene: int) -> None:
+    # the draws fitted to a picture drawn with an offset carry it; the model moves what no draw moves (walls,
+    # ground, constant places) by it too, so the world is the true one moved whole, which runs the same physics
+    model = layout_model(scene)
+    shifted = layout_model(scene, (), _OFFSET)
+    values = model.from_unit({d.path: 0.3 for d in model.draws})
+    attributes = [(s.shape if s.shape != "random" else "cube", s.color if s.color != "random" else "red",
+                   s.size if s.size != "random" else "small") for s in model.layout.dynamic]
+    seen = dict(values)
+    for path, axis in _PLACE_DRAWS[scene].items():
+        seen[path] = values[path] + _OFFSET[axis]
+    expected = _translated(model.world(values, attributes), _OFFSET)
+    got = shifted.world(seen, attributes)
+    assert [b.uid for b in got.bodies] == [b.uid for b in expected.bodies]
+    for a, b in zip(got.bodies, expected.bodies):
+        assert a.position == pytest.approx(b.position, abs=1e-9), (a.shape, a.uid)
+        assert (a.angle, a.velocity, a.shape) == (b.angle, b.velocity, b.shape)
+
+
+def test_only_places_no_draw_moves_are_fixed() -> None:
+    fixed = dict(layout_model(1).fixed_positions)
+    assert fixed["basket.position[1]"] == 1 and "basket.position[0]" not in fixed  # the basket's x is drawn
+    assert "static[0].position[0]" not in fixed and "static[2].position[0]" in fixed
+    fixed_15 = dict(layout_model(15).fixed_positions)  # expressions of draws (bx, yr) and of constants alone
+    assert "static[0].position[0]" not in fixed_15 and "static[1].position[1]" not in fixed_15
+    assert "static[3].position[0]" in fixed_15
+    assert layout_model(1, (), _OFFSET).fixed_start(2, {}) == pytest.approx(
+        tuple(a + b for a, b in zip(layout_model(1).fixed_start(2, {}) or (), _OFFSET)))
+
+
+@pytest.mark.parametrize("aliased", [False, True])
+def test_only_the_original_look_carries_the_renderers_offset(aliased: bool) -> None:
+    fit = fit_layout(np.repeat(_background(aliased)[None], 8, axis=0), scene=12)
+    assert fit.aliased is aliased
+    assert fit.offset == (ALIASED_OFFSET_M if aliased else (0.0, 0.0))

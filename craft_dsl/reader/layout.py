@@ -49,6 +49,11 @@ GOOD_FIT_RMS = 4.0
 #: antialiased videos (also re-encoded to H.264 or MPEG-4, or rescaled to 512 px), 0.00-0.009 on the original CRAFT
 #: renderer's (also re-encoded to H.264); rescaled to 128 px both read as antialiased (0.39-0.52).
 ALIASED_EDGE_SHARE = 0.05
+#: Where the original CRAFT renderer puts the world in its pictures, against craft_dsl's drawing (metres, x and y): its
+#: statics fit 0.023 m right of and 0.072 m below where its own sampler drew them, in every layout and on every seed
+#: (static balls: dy -0.073 m, sd 0.006, on two seeds of the original's own sampler; baskets: dx +0.019 to +0.027 m),
+#: about 1/8 pixel right and 3/8 down at 256 px; its bodies, drawn by the same transform, with them.
+ALIASED_OFFSET_M: tuple[float, float] = (0.023, -0.072)
 #: Pixels further than this from the fitted statics' drawing do not count in the edge share: a body resting for
 #: part of the video leaves a washed-out ghost in the median background, mid greys that are no edge (an original
 #: video with a ghost read 0.054 over the whole picture, 0.003 near its statics).
@@ -82,6 +87,13 @@ class StaticFit:
     def aliased(self) -> bool:
         """The statics' edges are aliased, as the original CRAFT renderer draws them (:data:`ALIASED_EDGE_SHARE`)."""
         return self.edge_share < ALIASED_EDGE_SHARE
+
+    @property
+    def offset(self) -> tuple[float, float]:
+        """Where the renderer that drew the video puts the world against craft_dsl's drawing (metres): the original
+        CRAFT renderer's (:data:`ALIASED_OFFSET_M`) where the edges are aliased, else none. The draws fitted here carry
+        it; :class:`~craft_dsl.reader.layout_model.LayoutModel` moves the places no draw moves by it too."""
+        return ALIASED_OFFSET_M if self.aliased else (0.0, 0.0)
 
 
 def median_background(frames: np.ndarray, count: int = MEDIAN_FRAMES) -> np.ndarray:

@@ -18,6 +18,10 @@ from ..scenes import Choice, Const, Expr, Quantity, SceneLayout, Uniform, load_s
 from ..world import BodySpec, WorldSpec, assign_uids, make_dynamic, make_static
 
 _DYNAMIC_PATH = re.compile(r"^dynamic\[(\d+)\](.*)$")
+_POSITION_PATH = re.compile(r"^(basket|static\[\d+\]|dynamic\[\d+\])\.position\[([01])\]$")
+
+#: Offset (metres) = (0, 0): the world as the layout file places it.
+NO_OFFSET: tuple[float, float] = (0.0, 0.0)
 
 #: (shape, colour, size) of one dynamic object.
 Attributes = tuple[str, str, str]
@@ -42,8 +46,12 @@ def _scalar(q: Const | Expr, variables: Mapping[str, float]) -> float:
 class LayoutModel:
     """The layout of scene ``scene_id`` as a function of its draws."""
 
-    def __init__(self, scene_id: int, absent: tuple[int, ...] = ()) -> None:
+    def __init__(self, scene_id: int, absent: tuple[int, ...] = (), offset: tuple[float, float] = NO_OFFSET) -> None:
         self.scene_id = scene_id
+        #: Where a picture drawn by another renderer puts the world, against craft_dsl's drawing (metres, x and y):
+        #: the draws fitted to its pixels carry the offset, so every place no draw moves (walls, ground, constant
+        #: coordinates) is moved by it too, and the world keeps its shape (:meth:`evaluate`).
+        self.offset = (float(offset[0]), float(offset[1]))
         layout = load_scene(scene_id)
         bad = [i for i in absent if not 0 <= i < len(layout.dynamic) or layout.dynamic[i].on_duplicate != "drop"]
         if bad:
@@ -87,7 +95,14 @@ class LayoutModel:
 
     def evaluate(self, values: Mapping[str, float]) -> dict[str, float]:
         """Every field's number given the draws in ``values`` (missing draws: the middle of their range, the first
-        option)."""
+        option); a position no draw moves is moved by :attr:`offset`."""
+        out = self._evaluate(values)
+        if self.offset != NO_OFFSET:
+            for path, axis in self.fixed_positions:
+                out[path] += self.offset[axis]
+        return out
+
+    def _evaluate(self, values: Mapping[str, float]) -> dict[str, float]:
         variables: dict[str, float] = {}
         out: dict[str, float] = {}
         for path, q in self.layout.fields():
@@ -104,6 +119,30 @@ class LayoutModel:
             if path.startswith("variables."):
                 variables[path.split(".", 1)[1]] = v
         return out
+
+    @cached_property
+    def fixed_positions(self) -> tuple[tuple[str, int], ...]:
+        """The position fields (path, axis) that no draw moves: each draw set to the ends of its range (another
+        option of a choice), one at a time, leaves them where they are."""
+        middle = self._evaluate({})
+        moved: set[str] = set()
+        for d in self.draws:
+            q = d.quantity
+            if isinstance(q, Uniform):
+                lo, hi = self.bounds({}).get(d.path, (0.0, 0.0))
+                trials = [lo, hi]
+            else:
+                assert isinstance(q, Choice)
+                trials = list(q.options)
+            for value in trials:
+                changed = self._evaluate({d.path: value})
+                moved |= {p for p, v in changed.items() if v != middle[p]}
+        out = []
+        for path, _q in self.layout.fields():
+            m = _POSITION_PATH.match(path)
+            if m is not None and path not in moved:
+                out.append((path, int(m.group(2))))
+        return tuple(out)
 
     def from_unit(self, units: Mapping[str, float]) -> dict[str, float]:
         """Draw values from positions in their ranges (0: low end, 1: high end; clipped), evaluated in draw order
@@ -125,7 +164,7 @@ class LayoutModel:
 
     def bounds(self, values: Mapping[str, float]) -> dict[str, tuple[float, float]]:
         """The range of each uniform draw given the others (bounds may read variables)."""
-        fields = self.evaluate(values)
+        fields = self._evaluate(values)
         variables = {p.split(".", 1)[1]: v for p, v in fields.items() if p.startswith("variables.")}
         out = {}
         for d in self.draws:
@@ -150,7 +189,8 @@ class LayoutModel:
 
     def _make_statics(self, values: Mapping[str, float]) -> list[BodySpec]:
         f = self.evaluate(values)
-        bodies = [make_static(0, "wall_l"), make_static(0, "wall_r"), make_static(0, "ground"),
+        bodies = [make_static(0, "wall_l", self.offset), make_static(0, "wall_r", self.offset),
+                  make_static(0, "ground", self.offset),
                   make_static(0, "basket", (f["basket.position[0]"], f["basket.position[1]"]), 0.0)]
         for i, s in enumerate(self.layout.static):
             bodies.append(make_static(0, s.shape, (f[f"static[{i}].position[0]"], f[f"static[{i}].position[1]"]),
@@ -193,9 +233,9 @@ class LayoutModel:
         of those draws' variables); None where it depends on a draw of its own or one not in ``values``."""
         known = {path.removeprefix("variables."): v for path, v in values.items() if path.startswith("variables.")}
         out = []
-        for q in self.layout.dynamic[slot].position:
-            if isinstance(q, Const):
-                out.append(q.value)
+        for axis, q in enumerate(self.layout.dynamic[slot].position):
+            if isinstance(q, Const) or (isinstance(q, Expr) and not q.names):
+                out.append(_scalar(q, known) + self.offset[axis])  # a place no draw moves
             elif isinstance(q, Expr) and set(q.names) <= set(known):
                 out.append(q.evaluate(known))
             else:
@@ -218,7 +258,9 @@ def _names(q: Quantity) -> tuple[str, ...]:
     return ()
 
 
-@lru_cache(maxsize=32)
-def layout_model(scene_id: int, absent: tuple[int, ...] = ()) -> LayoutModel:
-    """The :class:`LayoutModel` of a built-in scene, less the ``absent`` dynamic slots (cached)."""
-    return LayoutModel(scene_id, absent)
+@lru_cache(maxsize=64)
+def layout_model(scene_id: int, absent: tuple[int, ...] = (), offset: tuple[float, float] = NO_OFFSET
+                 ) -> LayoutModel:
+    """The :class:`LayoutModel` of a built-in scene, less the ``absent`` dynamic slots, its fixed places moved by
+    ``offset`` (cached)."""
+    return LayoutModel(scene_id, absent, offset)

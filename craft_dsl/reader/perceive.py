@@ -132,14 +132,14 @@ def perceive_frames(frames: np.ndarray, scene: int | None = None, timings: dict[
     times["decode"] = times.get("decode", 0.0) + time.perf_counter() - t
     t = time.perf_counter()
     layout = fit_layout(frames, scene=scene)
-    model = layout_model(layout.scene)
+    model = layout_model(layout.scene, (), layout.offset)
     background = static_layer(WorldSpec(bodies=layout.statics), frames.shape[1])
     times["layout"] = time.perf_counter() - t
     t = time.perf_counter()
     tracks = find_tracks(frames, background, rows, source_size)
     absent = absent_slots(model, layout.values, tracks, frames.shape[1])
     if absent:  # a slot the original leaves empty on a duplicate triple (scene 7's last), and the video shows empty
-        model = layout_model(layout.scene, absent)
+        model = layout_model(layout.scene, absent, layout.offset)
         layout = replace(layout, values=model.renumbered(layout.values))
     objects = choose_tracks(tracks, len(model.layout.dynamic), frames, rows)
     pair_twins(objects)
@@ -277,6 +277,8 @@ def to_perceived(rec: Reconstruction, objects: list[TrackedObject], layout: Stat
         meta.update(video_fps=rate.fps, video_fps_source=rate.source)
     if frame_offset:
         meta["frame_offset"] = frame_offset
+    if layout.offset != (0.0, 0.0):  # the run's places are the picture's: the renderer's offset from the layout's
+        meta["render_offset_m"] = list(layout.offset)
     return scene.model_copy(update={"objects": objs, "meta": meta, "physics": physics})
 
 
