@@ -43,7 +43,10 @@ VALUE_ALIASES: dict[str, str] = {
 }
 
 #: Physics engines behind the simulator protocol.
-ENGINES: tuple[str, ...] = ("pymunk", "box2d")
+ENGINES: tuple[str, ...] = ("pymunk", "box2d", "box2d128")
+#: Box2D with the original's 128-gon circles: it needs Box2D built with 128-vertex polygons
+#: (``tools/box2d128/build.sh``).
+BOX2D128_ENGINE: Final = "box2d128"
 #: The engine every command and function that simulates uses unless told otherwise: Box2D (pybox2d) with the
 #: original's rolling loss and contact flicker, the engine whose answers agree with the original CRAFT simulator's
 #: more often than the original agrees with its own 2% perturbation (docs/original.md).
@@ -55,6 +58,8 @@ ENGINE_NOTES: dict[str, str] = {
     "box2d": "box2d, the default: its answers agree with the original CRAFT simulator's more often than the "
              "original's own 2%% perturbation does",
     "pymunk": "pymunk: less often than that floor, kept for the datasets made with it",
+    "box2d128": "box2d128: Box2D with the original's 128-gon circles, nearly as often as the original agrees with "
+                "itself (needs Box2D built by tools/box2d128/build.sh)",
     "original": "original: the original CRAFT simulator, built by tools/original/build.sh",
 }
 

@@ -94,9 +94,11 @@ class GenerationConfig(BaseModel):
     videos: bool = Field(False, description="render each video with its first and last frames")
     video_format: VideoFormat = Field(DEFAULT_VIDEO_FORMAT, description="mpg (MPEG-1, as published) or mp4 (H.264)")
     downsampled: tuple[int, ...] = Field((), description="also write H.264 videos at these frame rates (with videos)")
-    engine: Literal["pymunk", "box2d", "original"] = Field(
+    engine: Literal["pymunk", "box2d", "box2d128", "original"] = Field(
         DEFAULT_ENGINE, description="physics engine (box2d, the default; pymunk, the default of datasets made "
-                                    "before; original: the original CRAFT simulator, which also draws the videos)")
+                                    "before; box2d128: Box2D with the original's 128-gon circles, built by "
+                                    "tools/box2d128/build.sh; original: the original CRAFT simulator, which also "
+                                    "draws the videos)")
     sampler: Sampler = Field(DEFAULT_SAMPLER, description="who draws the start states: layouts-2 (the layout "
                                                           "files, default), layouts-1 (their revision before, "
                                                           "the default of datasets made before), original (the "

@@ -32,7 +32,7 @@ from typing import TYPE_CHECKING, Any, Literal, TypeVar, overload
 
 from ..errors import CounterfactualUnavailable, MissingExtraError
 from ..simulation import ObjectState, SimObject, Simulation, Trajectory
-from ..vocabulary import DEFAULT_ENGINE, ENGINES, ORIGINAL_ENGINE
+from ..vocabulary import BOX2D128_ENGINE, DEFAULT_ENGINE, ENGINES, ORIGINAL_ENGINE
 from ..world import DEFAULT_STEPS, WorldSpec
 from .engine import ContactLog, Interval, PhysicsEngine, RawRun, ReplayPlan, perturb_world, splice
 from .events import events_from_log
@@ -48,7 +48,8 @@ _K = TypeVar("_K", bound=tuple[int, ...])
 
 
 def get_engine(engine: str | PhysicsEngine) -> PhysicsEngine:
-    """An engine instance from a name ("box2d", the default, or "pymunk") or an instance.
+    """An engine instance from a name ("box2d", the default; "pymunk"; "box2d128", which needs Box2D built with
+    128-vertex polygons) or an instance.
 
     Box2D (pybox2d) is a dependency of the package, imported only when asked for."""
     if not isinstance(engine, str):
@@ -57,14 +58,14 @@ def get_engine(engine: str | PhysicsEngine) -> PhysicsEngine:
         from .pymunk_engine import PymunkEngine
 
         return PymunkEngine()
-    if engine == "box2d":
+    if engine in ("box2d", BOX2D128_ENGINE):
         try:
-            from .box2d_engine import Box2DEngine
+            from .box2d_engine import Box2D128Engine, Box2DEngine
         except ModuleNotFoundError as exc:  # the optional extra is missing
             if exc.name != "Box2D":
                 raise
-            raise MissingExtraError("the box2d engine", "box2d", "pybox2d") from exc
-        return Box2DEngine()
+            raise MissingExtraError(f"the {engine} engine", "box2d", "pybox2d") from exc
+        return Box2DEngine() if engine == "box2d" else Box2D128Engine()
     if engine == ORIGINAL_ENGINE:
         raise ValueError("the original simulator records runs and cannot step a world frame by frame: use "
                          "simulate(..., engine='original'); engines that step worlds: " + ", ".join(ENGINES))
@@ -300,7 +301,7 @@ def world_and_meta(scene: int | str | Path | WorldSpec, seed: int = 0) -> tuple[
 
 @overload
 def simulate(scene: int | str | Path | WorldSpec, seed: int = 0, steps: int = DEFAULT_STEPS,
-             engine: Literal["pymunk", "box2d"] | PhysicsEngine = DEFAULT_ENGINE) -> LiveSimulation: ...
+             engine: Literal["pymunk", "box2d", "box2d128"] | PhysicsEngine = DEFAULT_ENGINE) -> LiveSimulation: ...
 
 
 @overload
