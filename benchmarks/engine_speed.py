@@ -1,5 +1,6 @@
 """Generation speed of each engine, measured in the same run: ``craft-dsl generate --engine E`` for box2d (the
-default), pymunk and the original CRAFT simulator, without and with videos.
+default), pymunk and the original CRAFT simulator, without and with videos (``box2d128``, Box2D with the original's
+128-gons, where Box2D is built for it: ``tools/box2d128/build.sh``).
 
 Run: ``python benchmarks/engine_speed.py [--size 20] [--workers 2] [--engines box2d,pymunk,original]``.
 
